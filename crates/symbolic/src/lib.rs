@@ -1,2 +1,21 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
+
+mod constraint;
+mod error;
+mod expr;
+mod function;
+mod lower;
+mod parser;
+mod pattern;
+mod shape;
+mod tape;
+
+pub use constraint::{Constraint, Nodes, Timing};
+pub use error::SymbolicError;
+pub use expr::{BinaryOp, Expr, LieOp, Norm, UnaryOp};
+pub use function::{DENSE_MAX_INPUTS, DerivativeMode, Function, InputSlot};
+pub use parser::{SymbolTable, parse_constraint, parse_expr};
+pub use pattern::SparsityPattern;
+pub use shape::Shape;
+pub use tape::Workspace;
