@@ -89,6 +89,9 @@ pub enum SymbolicError {
         /// Length given.
         got: usize,
     },
+    /// A workspace created by another function (it holds that function's constants).
+    #[error("workspace belongs to another function: create one with Function::workspace()")]
+    ForeignWorkspace,
     /// A constraint that cannot be used as stated.
     #[error("constraint '{name}': {reason}")]
     BadConstraint {

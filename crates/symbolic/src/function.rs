@@ -23,7 +23,7 @@ pub enum DerivativeMode {
 }
 
 /// Input count up to which [`DerivativeMode::Auto`] chooses dense rows.
-pub const DENSE_MAX_INPUTS: usize = 12;
+pub const DENSE_MAX_INPUTS: usize = 16;
 
 /// One named variable of an input group and where its entries sit in the input vector.
 #[derive(Debug, Clone, PartialEq)]
@@ -297,14 +297,8 @@ impl Function {
         if let Some(j) = &jacobian {
             check("jacobian", self.pattern.nnz(), j.len())?;
         }
-        let dlen =
-            if self.dense { self.tape.n_slots() * self.n_inputs } else { self.tape.dep_cols.len() };
-        if ws.val.len() != self.tape.n_slots() || ws.dval.len() != dlen {
-            return Err(SymbolicError::BufferLength {
-                what: "workspace (from another function?)",
-                expected: self.tape.n_slots(),
-                got: ws.val.len(),
-            });
+        if ws.tape_id != self.tape.id {
+            return Err(SymbolicError::ForeignWorkspace);
         }
         if self.dense {
             self.tape.run_dense(input, &self.param_values, ws, jacobian.is_some());
@@ -323,7 +317,7 @@ impl Function {
                     let pos =
                         &self.jac_pos[self.jac_start[k] as usize..self.jac_start[k + 1] as usize];
                     if self.dense {
-                        let row = &ws.dval[s as usize * self.n_inputs..];
+                        let row = &ws.dval[s as usize * self.tape.dense_stride()..];
                         for (&c, &p) in self.tape.deps(s).iter().zip(pos) {
                             jac[p as usize] = row[c as usize];
                         }

@@ -75,10 +75,15 @@ pub(crate) struct Builder<'a> {
 
 type Res<T> = Result<T, SymbolicError>;
 
+fn next_tape_id() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 impl<'a> Builder<'a> {
     pub(crate) fn new(inputs: &'a HashMap<Arc<str>, InputInfo>, n_inputs: usize) -> Self {
         Builder {
-            tape: Tape { n_inputs, ..Tape::default() },
+            tape: Tape { n_inputs, id: next_tape_id(), ..Tape::default() },
             deps: Vec::new(),
             cse: HashMap::new(),
             lin: Vec::new(),

@@ -511,17 +511,17 @@ impl<'a> Parser<'a> {
         loop {
             let at = self.pos();
             v.push((self.sum()?, at));
-            match self.next() {
-                Tok::Comma => continue,
-                t if t == close => return Ok(v),
-                _ => {
-                    self.i -= 1;
-                    return Err(self.error_here(if close == Tok::RParen {
-                        "expected ',' or ')'"
-                    } else {
-                        "expected ',' or ']'"
-                    }));
+            let msg =
+                if close == Tok::RParen { "expected ',' or ')'" } else { "expected ',' or ']'" };
+            match self.peek() {
+                Tok::Comma => {
+                    self.next();
                 }
+                t if *t == close => {
+                    self.next();
+                    return Ok(v);
+                }
+                _ => return Err(self.error_here(msg)),
             }
         }
     }
@@ -583,9 +583,13 @@ impl<'a> Parser<'a> {
     /// `norm(x)`, `norm(x, 1)`, `norm(x, 2)`, `norm(x, inf)`.
     fn norm_call(&mut self, at: usize) -> Result<Expr, SymbolicError> {
         let x = self.sum()?;
-        let kind = match self.next() {
-            Tok::RParen => Norm::L2,
+        let kind = match self.peek() {
+            Tok::RParen => {
+                self.next();
+                Norm::L2
+            }
             Tok::Comma => {
+                self.next();
                 let ord_at = self.pos();
                 let kind = match self.next() {
                     Tok::Name(n) if n == "inf" => Norm::Inf,
@@ -596,10 +600,7 @@ impl<'a> Parser<'a> {
                 self.expect(Tok::RParen, "')'")?;
                 kind
             }
-            _ => {
-                self.i -= 1;
-                return Err(self.error_here("expected ',' or ')'"));
-            }
+            _ => return Err(self.error_here("expected ',' or ')'")),
         };
         self.checked(x.norm(kind), at)
     }

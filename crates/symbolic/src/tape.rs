@@ -135,12 +135,16 @@ pub(crate) struct Tape {
     pub(crate) dep_cols: Vec<u32>,
     pub(crate) vmaps: Vec<VmapBody>,
     pub(crate) n_inputs: usize,
+    /// Unique per compilation: a workspace holds this tape's constants and input rows, so it
+    /// must not be used with another tape.
+    pub(crate) id: u64,
 }
 
 /// Scratch memory for evaluating a compiled [`Function`](crate::Function); create it once
 /// with [`Function::workspace`](crate::Function::workspace) and reuse it.
 #[derive(Debug, Clone)]
 pub struct Workspace {
+    pub(crate) tape_id: u64,
     pub(crate) val: Vec<f64>,
     pub(crate) dval: Vec<f64>,
     pub(crate) scratch: Vec<f64>,
@@ -174,6 +178,7 @@ impl Tape {
             val[slot as usize] = c;
         }
         Workspace {
+            tape_id: self.id,
             val,
             dval: vec![0.0; self.dep_cols.len()],
             scratch: vec![0.0; 2 * max_args + 256],
@@ -257,17 +262,50 @@ impl Tape {
         }
     }
 
-    /// Like [`run`](Self::run) with dense derivative rows of width `w = n_inputs`:
-    /// `dval[s·w..(s+1)·w]` is the full gradient of slot `s`. Branch-free and vectorisable,
-    /// it beats the sparse bookkeeping when there are few inputs. Input rows (unit vectors)
-    /// and constant rows (zero) are preset by [`workspace_dense`](Self::workspace_dense).
+    /// Row stride of dense mode: the input count rounded up to a multiple of 4 (≤ 16), so
+    /// each derivative update is a few full-width SIMD operations.
+    pub(crate) fn dense_stride(&self) -> usize {
+        self.n_inputs.div_ceil(4).max(1) * 4
+    }
+
+    /// Like [`run`](Self::run) with dense derivative rows: `dval[s·N..(s+1)·N]` is the full
+    /// gradient of slot `s` (padded to the stride `N`). Branch-free and vectorisable, it beats
+    /// the sparse bookkeeping when there are few inputs. Input rows (unit vectors) and
+    /// constant rows (zero) are preset by [`workspace_dense`](Self::workspace_dense).
     pub(crate) fn run_dense(&self, input: &[f64], params: &[f64], ws: &mut Workspace, jac: bool) {
-        let w = self.n_inputs;
-        macro_rules! rows {
-            ($out:expr) => {{
-                let (before, rest) = ws.dval.split_at_mut($out as usize * w);
-                (before, &mut rest[..w])
-            }};
+        match self.dense_stride() {
+            4 => self.run_dense_n::<4>(input, params, ws, jac),
+            8 => self.run_dense_n::<8>(input, params, ws, jac),
+            12 => self.run_dense_n::<12>(input, params, ws, jac),
+            16 => self.run_dense_n::<16>(input, params, ws, jac),
+            w => unreachable!("dense stride {w} beyond DENSE_MAX_INPUTS"),
+        }
+    }
+
+    fn run_dense_n<const N: usize>(
+        &self,
+        input: &[f64],
+        params: &[f64],
+        ws: &mut Workspace,
+        jac: bool,
+    ) {
+        /// (rows before `out`, the row of `out`).
+        #[inline(always)]
+        fn split<const N: usize>(dval: &mut [f64], out: u32) -> (&[f64], &mut [f64; N]) {
+            let (before, rest) = dval.split_at_mut(out as usize * N);
+            (before, (&mut rest[..N]).try_into().expect("row of N"))
+        }
+        #[inline(always)]
+        fn row<const N: usize>(before: &[f64], s: u32) -> &[f64; N] {
+            before[s as usize * N..s as usize * N + N].try_into().expect("row of N")
+        }
+        #[inline(always)]
+        fn lin2<const N: usize>(dval: &mut [f64], x: u32, y: u32, out: u32, pa: f64, pb: f64) {
+            let (b, d) = split::<N>(dval, out);
+            let (dx, dy) = (row::<N>(b, x), row::<N>(b, y));
+            for j in 0..N {
+                d[j] = pa * dx[j] + pb * dy[j];
+            }
         }
         for ins in &self.instrs {
             match *ins {
@@ -277,9 +315,9 @@ impl Tape {
                     let (v, p) = op.eval(ws.val[x as usize]);
                     ws.val[out as usize] = v;
                     if jac {
-                        let (b, d) = rows!(out);
-                        let dx = &b[x as usize * w..x as usize * w + w];
-                        for j in 0..w {
+                        let (b, d) = split::<N>(&mut ws.dval, out);
+                        let dx = row::<N>(b, x);
+                        for j in 0..N {
                             d[j] = p * dx[j];
                         }
                     }
@@ -289,10 +327,10 @@ impl Tape {
                     ws.val[out as usize] = sn;
                     ws.val[out as usize + 1] = cs;
                     if jac {
-                        let (b, rest) = ws.dval.split_at_mut(out as usize * w);
-                        let dx = &b[x as usize * w..x as usize * w + w];
-                        let (ds, dc) = rest[..2 * w].split_at_mut(w);
-                        for j in 0..w {
+                        let (b, rest) = ws.dval.split_at_mut(out as usize * N);
+                        let dx = row::<N>(b, x);
+                        let (ds, dc) = rest[..2 * N].split_at_mut(N);
+                        for j in 0..N {
                             ds[j] = cs * dx[j];
                             dc[j] = -sn * dx[j];
                         }
@@ -301,42 +339,40 @@ impl Tape {
                 Instr::Add { x, y, out, .. } => {
                     ws.val[out as usize] = ws.val[x as usize] + ws.val[y as usize];
                     if jac {
-                        Self::dense2(&mut ws.dval, w, x, y, out, 1.0, 1.0);
+                        lin2::<N>(&mut ws.dval, x, y, out, 1.0, 1.0);
                     }
                 }
                 Instr::Sub { x, y, out, .. } => {
                     ws.val[out as usize] = ws.val[x as usize] - ws.val[y as usize];
                     if jac {
-                        Self::dense2(&mut ws.dval, w, x, y, out, 1.0, -1.0);
+                        lin2::<N>(&mut ws.dval, x, y, out, 1.0, -1.0);
                     }
                 }
                 Instr::Mul { x, y, out, .. } => {
                     let (a, b) = (ws.val[x as usize], ws.val[y as usize]);
                     ws.val[out as usize] = a * b;
                     if jac {
-                        Self::dense2(&mut ws.dval, w, x, y, out, b, a);
+                        lin2::<N>(&mut ws.dval, x, y, out, b, a);
                     }
                 }
                 Instr::Binary { op, x, y, out, .. } => {
                     let (v, pa, pb) = op.eval(ws.val[x as usize], ws.val[y as usize]);
                     ws.val[out as usize] = v;
                     if jac {
-                        Self::dense2(&mut ws.dval, w, x, y, out, pa, pb);
+                        lin2::<N>(&mut ws.dval, x, y, out, pa, pb);
                     }
                 }
-                // Multi-operand instructions: compute values and local partials with the sparse
-                // code (it does not touch dval without `jac`), then combine dense rows.
                 Instr::Reduce { op, a0, n, out, .. } => {
                     let args = &self.args[a0 as usize..(a0 + n) as usize];
                     ws.val[out as usize] = reduce_value(op, args, &ws.val, &mut ws.scratch);
                     if jac {
-                        self.dense_multi(ws, a0, n, out, 1);
+                        self.dense_multi::<N>(ws, a0, n, out, 1);
                     }
                 }
                 Instr::Lie { op, a0, n, out, nout, .. } => {
                     self.eval_lie(op, a0, n, out, nout, ws);
                     if jac {
-                        self.dense_multi(ws, a0, n, out, nout);
+                        self.dense_multi::<N>(ws, a0, n, out, nout);
                     }
                 }
                 Instr::Vmap { .. } => {
@@ -346,30 +382,24 @@ impl Tape {
         }
     }
 
-    /// `d(out) = pa·d(x) + pb·d(y)` on dense rows.
-    #[inline(always)]
-    fn dense2(dval: &mut [f64], w: usize, x: u32, y: u32, out: u32, pa: f64, pb: f64) {
-        let (b, rest) = dval.split_at_mut(out as usize * w);
-        let d = &mut rest[..w];
-        let dx = &b[x as usize * w..x as usize * w + w];
-        let dy = &b[y as usize * w..y as usize * w + w];
-        for j in 0..w {
-            d[j] = pa * dx[j] + pb * dy[j];
-        }
-    }
-
     /// Dense rows of outputs `out..out+nout` from the local Jacobian in `scratch[o·n + k]`.
-    fn dense_multi(&self, ws: &mut Workspace, a0: u32, n: u32, out: u32, nout: u32) {
-        let w = self.n_inputs;
+    fn dense_multi<const N: usize>(
+        &self,
+        ws: &mut Workspace,
+        a0: u32,
+        n: u32,
+        out: u32,
+        nout: u32,
+    ) {
         for o in 0..nout as usize {
-            let (b, rest) = ws.dval.split_at_mut((out as usize + o) * w);
-            let d = &mut rest[..w];
+            let (b, rest) = ws.dval.split_at_mut((out as usize + o) * N);
+            let d = &mut rest[..N];
             d.fill(0.0);
             for k in 0..n as usize {
                 let p = ws.scratch[o * n as usize + k];
                 let a = self.args[a0 as usize + k] as usize;
                 if p != 0.0 {
-                    for (dj, xj) in d.iter_mut().zip(&b[a * w..a * w + w]) {
+                    for (dj, xj) in d.iter_mut().zip(&b[a * N..a * N + N]) {
                         *dj += p * xj;
                     }
                 }
@@ -655,7 +685,7 @@ impl Tape {
     /// vectors, constant rows zero.
     pub(crate) fn workspace_dense(&self) -> Workspace {
         let mut ws = self.workspace();
-        let w = self.n_inputs;
+        let w = self.dense_stride();
         ws.dval = vec![0.0; self.n_slots() * w];
         for ins in &self.instrs {
             if let Instr::Input { out, index } = *ins {
@@ -668,6 +698,12 @@ impl Tape {
 
 impl Workspace {
     fn empty() -> Self {
-        Workspace { val: Vec::new(), dval: Vec::new(), scratch: Vec::new(), sub: Vec::new() }
+        Workspace {
+            tape_id: 0,
+            val: Vec::new(),
+            dval: Vec::new(),
+            scratch: Vec::new(),
+            sub: Vec::new(),
+        }
     }
 }

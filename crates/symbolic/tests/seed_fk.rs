@@ -72,7 +72,7 @@ fn jacobian_matches_finite_differences_and_pattern_is_tight() {
     for f in [&f, &sparse] {
         for k in 0..20 {
             let q: Vec<f64> = (0..7).map(|i| ((k * 7 + i) as f64 * 1.913).cos() * 2.0).collect();
-            let (err, covered) = check_against_fd(&f, &q, 1e-6);
+            let (err, covered) = check_against_fd(f, &q, 1e-6);
             assert!(err < 1e-7, "rel err {err}");
             assert!(covered);
         }

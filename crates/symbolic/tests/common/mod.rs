@@ -3,12 +3,12 @@
 
 use armature_symbolic::{Expr, Function};
 
-pub const D1: f64 = 0.340;
-pub const A2: f64 = 0.300;
-pub const A3: f64 = 0.250;
-pub const A4: f64 = 0.150;
+pub(crate) const D1: f64 = 0.340;
+pub(crate) const A2: f64 = 0.300;
+pub(crate) const A3: f64 = 0.250;
+pub(crate) const A4: f64 = 0.150;
 
-pub fn screws() -> [[f64; 6]; 7] {
+pub(crate) fn screws() -> [[f64; 6]; 7] {
     [
         [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
         [-D1, 0.0, 0.0, 0.0, 1.0, 0.0],
@@ -21,7 +21,7 @@ pub fn screws() -> [[f64; 6]; 7] {
 }
 
 /// The tutorial's symbolic FK: keypoint frames after 0/1/2/4/7 joints, and T_ee.
-pub fn seed_fk(angle: &Expr) -> (Vec<Expr>, Expr) {
+pub(crate) fn seed_fk(angle: &Expr) -> (Vec<Expr>, Expr) {
     let s = screws();
     let mut chain = Expr::identity(4);
     let mut frames = Vec::new();
@@ -44,7 +44,7 @@ pub fn seed_fk(angle: &Expr) -> (Vec<Expr>, Expr) {
 }
 
 /// Dense Jacobian (row-major) by central differences of `f`'s values.
-pub fn fd_jacobian(f: &Function, x: &[f64], h: f64) -> Vec<f64> {
+pub(crate) fn fd_jacobian(f: &Function, x: &[f64], h: f64) -> Vec<f64> {
     let (n, m) = (f.n_inputs(), f.n_outputs());
     let mut ws = f.workspace();
     let (mut vp, mut vm) = (vec![0.0; m], vec![0.0; m]);
@@ -64,7 +64,7 @@ pub fn fd_jacobian(f: &Function, x: &[f64], h: f64) -> Vec<f64> {
 }
 
 /// Analytic dense Jacobian (row-major) from the sparse one.
-pub fn dense_jacobian(f: &Function, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn dense_jacobian(f: &Function, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let mut ws = f.workspace();
     let mut v = vec![0.0; f.n_outputs()];
     let mut nz = vec![0.0; f.jacobian_pattern().nnz()];
@@ -74,7 +74,7 @@ pub fn dense_jacobian(f: &Function, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
 
 /// Max |analytic − FD| / max(1, |analytic|) entrywise, and whether every FD-nonzero entry is
 /// in the pattern.
-pub fn check_against_fd(f: &Function, x: &[f64], h: f64) -> (f64, bool) {
+pub(crate) fn check_against_fd(f: &Function, x: &[f64], h: f64) -> (f64, bool) {
     let (_, a) = dense_jacobian(f, x);
     let d = fd_jacobian(f, x, h);
     let n = f.n_inputs();

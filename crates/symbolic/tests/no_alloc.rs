@@ -1,0 +1,101 @@
+//! Evaluation allocates nothing after compilation: a counting global allocator watches
+//! repeated evaluations (values and Jacobians, sparse and dense modes, Lie nodes, norms,
+//! vmap) on this thread.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use armature_symbolic::{DerivativeMode, Expr, Function, Norm, Shape};
+
+struct Counting;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static WATCHING: Cell<bool> = const { Cell::new(false) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if WATCHING.with(|w| w.get()) {
+            ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        }
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if WATCHING.with(|w| w.get()) {
+            ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        }
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations_during(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    WATCHING.with(|w| w.set(true));
+    f();
+    WATCHING.with(|w| w.set(false));
+    ALLOCATIONS.load(Ordering::SeqCst) - before
+}
+
+#[test]
+fn evaluation_is_allocation_free() {
+    let angle = Expr::variable("angle", 7);
+    let extra = Expr::variable("w", 6);
+    let (frames, t_ee) = common::seed_fk(&angle);
+    let wp = Expr::parameter("wp", Shape::Vector(3), &[0.4, 0.1, 0.3]);
+    let p_ee = t_ee.block(0, 3, 3, 4);
+    let r_ee = t_ee.block(0, 3, 0, 3);
+    let ts = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let kp = frames[3].block(0, 3, 3, 4);
+    let outputs = vec![
+        t_ee.clone(),
+        (&p_ee - &wp).norm2(),
+        (&p_ee - &wp).norm(Norm::Inf),
+        (&p_ee - &wp).norm(Norm::L1),
+        r_ee.so3_log(),
+        t_ee.se3_log(),
+        extra.se3_exp(),
+        extra.slice(0, 3).so3_exp(),
+        Expr::vmap(&ts, 1, |t| (&kp * (1.0 - t) + &p_ee * t - &wp).norm2()),
+        angle.squared_pos().sum() + extra.pos().sum() + angle.at(0).max(extra.at(1)),
+    ];
+    let mut fns = Vec::new();
+    for mode in [DerivativeMode::Sparse, DerivativeMode::Dense, DerivativeMode::Auto] {
+        // Without the vmap (dense mode needs none), and with everything.
+        fns.push(
+            Function::compile_with(&outputs[..8], &[&[angle.clone(), extra.clone()]], mode)
+                .unwrap(),
+        );
+        fns.push(
+            Function::compile_with(&outputs, &[&[angle.clone(), extra.clone()]], mode).unwrap(),
+        );
+    }
+    assert!(fns.iter().any(|f| f.is_dense()) && fns.iter().any(|f| !f.is_dense()));
+    for f in &mut fns {
+        let mut ws = f.workspace();
+        let mut v = vec![0.0; f.n_outputs()];
+        let mut jac = vec![0.0; f.jacobian_pattern().nnz()];
+        let mut x: Vec<f64> = (0..13).map(|i| (i as f64 * 0.61).sin()).collect();
+        let n = allocations_during(|| {
+            for k in 0..100 {
+                x[k % 13] += 0.01;
+                f.eval(&x, &mut ws, &mut v, Some(&mut jac)).unwrap();
+                f.eval(&x, &mut ws, &mut v, None).unwrap();
+            }
+            f.set_parameter("wp", &[0.3, 0.2, 0.1]).unwrap();
+            f.eval(&x, &mut ws, &mut v, Some(&mut jac)).unwrap();
+        });
+        assert_eq!(n, 0, "evaluation allocated {n} times (dense = {})", f.is_dense());
+        assert!(v.iter().chain(&jac).all(|x| x.is_finite()));
+    }
+    // The counter does see allocations (the test can fail).
+    assert!(allocations_during(|| drop(std::hint::black_box(vec![1u8; 64]))) > 0);
+}
