@@ -1,18 +1,55 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
-use clap::Parser;
+use clap::{Parser, Subcommand};
+
+pub mod commands;
+pub mod exit;
 
 /// Command-line arguments of the `armature` binary.
 #[derive(Debug, Parser)]
-#[command(name = "armature", version, about, long_about = None)]
-pub struct Cli {}
+#[command(name = "armature", version, about = "Time-optimal arm trajectories: kinematics, IK, collision, SCvx", long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
 
-/// Runs the binary with already-parsed arguments and returns the process exit code.
-pub fn run(_cli: Cli) -> i32 {
-    println!(
-        "armature {}: no subcommands yet; see README.md for what works today.",
-        env!("CARGO_PKG_VERSION")
-    );
-    0
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Forward kinematics: keypoint frames and the end-effector pose as JSON.
+    Fk(commands::fk::FkArgs),
+}
+
+/// An error a command reports to the user (printed as `error: …`), with its exit code.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub struct CliError {
+    /// What went wrong, for the user.
+    pub message: String,
+    /// The process exit code (see [`exit`]).
+    pub code: i32,
+}
+
+impl CliError {
+    /// A bad-input error (exit code [`exit::BAD_INPUT`]).
+    pub fn bad_input(message: impl std::fmt::Display) -> Self {
+        CliError { message: message.to_string(), code: exit::BAD_INPUT }
+    }
+}
+
+/// Runs the binary with already-parsed arguments, writing results to `out`; returns the
+/// process exit code (errors are printed to standard error).
+pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
+    let result = match cli.command {
+        Command::Fk(args) => commands::fk::run(&args, out),
+    };
+    match result {
+        Ok(()) => exit::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", e.message);
+            e.code
+        }
+    }
 }

@@ -3,5 +3,7 @@
 use clap::Parser;
 
 fn main() {
-    std::process::exit(armature_cli::run(armature_cli::Cli::parse()));
+    let cli = armature_cli::Cli::parse();
+    let code = armature_cli::run(cli, &mut std::io::stdout().lock());
+    std::process::exit(code);
 }

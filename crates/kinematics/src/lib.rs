@@ -1,2 +1,17 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
+
+mod chain;
+mod description;
+mod error;
+mod fk;
+pub mod robots;
+mod symbolic_fk;
+mod urdf;
+
+pub use chain::{AXIS_TOLERANCE, Chain, ChainData, Joint, JointKind, Keypoint, Limits, Pose};
+pub use description::{chain_from_toml_str, load_robot};
+pub use error::KinematicsError;
+pub use fk::FkWorkspace;
+pub use symbolic_fk::SymbolicFk;
+pub use urdf::{chain_from_urdf_file, chain_from_urdf_str};

@@ -1,0 +1,4 @@
+//! One module per subcommand: its argument struct and its `run`.
+
+pub mod fk;
+pub mod robot;

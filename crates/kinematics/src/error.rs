@@ -1,0 +1,68 @@
+//! Errors of the kinematics crate.
+
+/// Why a chain could not be built or loaded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KinematicsError {
+    /// A joint whose data is invalid.
+    #[error("joint {index} ('{name}'): {reason}")]
+    BadJoint {
+        /// Position in the chain.
+        index: usize,
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A keypoint whose data is invalid.
+    #[error("keypoint '{name}': {reason}")]
+    BadKeypoint {
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The home pose is not a rigid transform.
+    #[error("home pose: {0}")]
+    BadHome(String),
+    /// A name used twice.
+    #[error("duplicate {what} name '{name}'")]
+    DuplicateName {
+        /// `joint` or `keypoint`.
+        what: &'static str,
+        /// The name.
+        name: String,
+    },
+    /// A URDF problem: missing link, a link off the base→tip path, an unsupported joint,
+    /// malformed XML.
+    #[error("URDF: {0}")]
+    Urdf(String),
+    /// A robot description file that does not parse or validate, with its location.
+    #[error("{location}: {message}")]
+    File {
+        /// `file:line:col` (or the file alone).
+        location: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An unknown built-in robot name.
+    #[error(
+        "unknown robot '{0}': use a built-in name (arm7, ur5e), a .toml screw table or a .urdf file"
+    )]
+    UnknownRobot(String),
+    /// Joint angles that do not fit the chain.
+    #[error("expected {expected} joint values, got {got}")]
+    WrongJointCount {
+        /// Joints of the chain.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A non-finite joint value.
+    #[error("joint value {index} is {value}, not a finite number")]
+    NonFiniteJoint {
+        /// Its index.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+}

@@ -1,0 +1,157 @@
+//! URDF import: a serial chain between two links, converted to screw axes and a home pose.
+
+use std::collections::HashMap;
+
+use armature_lie::{SE3, SO3};
+use nalgebra::{UnitQuaternion, Vector3};
+
+use crate::{Chain, Joint, JointKind, Keypoint, KinematicsError, Limits};
+
+fn origin(p: &urdf_rs::Pose) -> SE3 {
+    let [r, pi, y] = p.rpy.0;
+    SE3::from_parts(SO3::from(UnitQuaternion::from_euler_angles(r, pi, y)), Vector3::from(p.xyz.0))
+}
+
+fn err(msg: impl Into<String>) -> KinematicsError {
+    KinematicsError::Urdf(msg.into())
+}
+
+/// Builds a chain from URDF text: the joints on the path from link `base` to link `tip`
+/// (revolute, continuous, prismatic; fixed joints fold into the geometry), with the home pose
+/// of `tip` as end effector and keypoints at `keypoint_links` (default: `base`, the child
+/// link of every movable joint, and `tip`), named after the links.
+///
+/// Limits: URDF cannot tell a missing `<limit>` from zeros, so a revolute/prismatic joint with
+/// `lower = upper = 0` gets no position limits, and zero velocity/effort mean absent;
+/// continuous joints have no position limits.
+///
+/// # Errors
+/// [`KinematicsError::Urdf`] for malformed XML, a missing link, a tip not below the base, a
+/// keypoint link off the base→tip path, a floating/planar/spherical joint on the path, or a
+/// zero joint axis.
+pub fn chain_from_urdf_str(
+    xml: &str,
+    base: &str,
+    tip: &str,
+    keypoint_links: Option<&[&str]>,
+) -> Result<Chain, KinematicsError> {
+    let robot = urdf_rs::read_from_string(xml).map_err(|e| err(format!("malformed URDF: {e}")))?;
+    for l in [base, tip] {
+        if !robot.links.iter().any(|k| k.name == l) {
+            let names: Vec<&str> = robot.links.iter().map(|k| k.name.as_str()).collect();
+            return Err(err(format!("no link named '{l}' (links: {})", names.join(", "))));
+        }
+    }
+    let by_child: HashMap<&str, &urdf_rs::Joint> =
+        robot.joints.iter().map(|j| (j.child.link.as_str(), j)).collect();
+    // Walk up from the tip to the base.
+    let mut path = Vec::new();
+    let mut link = tip;
+    while link != base {
+        match by_child.get(link) {
+            Some(j) => {
+                path.push(*j);
+                link = j.parent.link.as_str();
+            }
+            None => {
+                return Err(err(format!(
+                    "link '{tip}' is not below link '{base}' (walking up from the tip ends at '{link}')"
+                )));
+            }
+        }
+    }
+    path.reverse();
+    // Links on the path, each with the movable-joint count before it and its home frame.
+    let mut t = SE3::identity();
+    let mut joints = Vec::new();
+    let mut links: Vec<(String, usize, SE3)> = vec![(base.to_string(), 0, t)];
+    for j in &path {
+        let frame = t * origin(&j.origin);
+        let kind = match j.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                Some(JointKind::Revolute)
+            }
+            urdf_rs::JointType::Prismatic => Some(JointKind::Prismatic),
+            urdf_rs::JointType::Fixed => None,
+            ref other => {
+                return Err(err(format!(
+                    "joint '{}' is {other:?}: only revolute, continuous, prismatic and fixed joints are supported",
+                    j.name
+                )));
+            }
+        };
+        if let Some(kind) = kind {
+            let a = Vector3::from(j.axis.xyz.0);
+            if a.norm() < 1e-12 {
+                return Err(err(format!("joint '{}' has a zero axis", j.name)));
+            }
+            let axis = frame.act_vector(&a.normalize());
+            let l = &j.limit;
+            let continuous = j.joint_type == urdf_rs::JointType::Continuous;
+            let has_pos = !(continuous || (l.lower == 0.0 && l.upper == 0.0));
+            let limits = Limits {
+                lower: has_pos.then_some(l.lower),
+                upper: has_pos.then_some(l.upper),
+                velocity: (l.velocity > 0.0).then_some(l.velocity),
+                effort: (l.effort > 0.0).then_some(l.effort),
+            };
+            joints.push(match kind {
+                JointKind::Revolute => {
+                    Joint::revolute(&j.name, axis.into(), frame.translation().into(), limits)
+                }
+                JointKind::Prismatic => Joint::prismatic(&j.name, axis.into(), limits),
+            });
+        }
+        t = frame;
+        links.push((j.child.link.clone(), joints.len(), t));
+    }
+    let wanted: Vec<String> = match keypoint_links {
+        Some(v) => v.iter().map(|s| s.to_string()).collect(),
+        None => {
+            let mut v = vec![base.to_string()];
+            for j in &path {
+                if j.joint_type != urdf_rs::JointType::Fixed {
+                    v.push(j.child.link.clone());
+                }
+            }
+            if v.last().map(String::as_str) != Some(tip) {
+                v.push(tip.to_string());
+            }
+            v
+        }
+    };
+    let mut keypoints = Vec::new();
+    for w in &wanted {
+        let (_, after, frame) = links.iter().find(|(n, _, _)| n == w).ok_or_else(|| {
+            if robot.links.iter().any(|l| &l.name == w) {
+                err(format!("keypoint link '{w}' is not on the path {base} → {tip} (it is on another branch)"))
+            } else {
+                err(format!("no link named '{w}' for a keypoint"))
+            }
+        })?;
+        keypoints.push(Keypoint {
+            name: w.clone(),
+            after: *after,
+            position: frame.translation().into(),
+        });
+    }
+    keypoints.sort_by_key(|k| k.after);
+    Chain::new(&robot.name, joints, t, keypoints)
+}
+
+/// [`chain_from_urdf_str`] on a file.
+///
+/// # Errors
+/// As [`chain_from_urdf_str`], plus [`KinematicsError::File`] if the file cannot be read.
+pub fn chain_from_urdf_file(
+    path: &std::path::Path,
+    base: &str,
+    tip: &str,
+    keypoint_links: Option<&[&str]>,
+) -> Result<Chain, KinematicsError> {
+    let xml = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
+        location: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    chain_from_urdf_str(&xml, base, tip, keypoint_links)
+}
