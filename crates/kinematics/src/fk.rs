@@ -71,7 +71,11 @@ impl FkWorkspace {
             });
         }
         let ad = self.ee().inverse().adjoint();
-        out.gemm(1.0, &ad, &self.space_jacobian, 0.0);
+        // Column by column with fixed-size products: a dynamic gemm would allocate a buffer.
+        for i in 0..out.ncols() {
+            let col: nalgebra::Vector6<f64> = ad * self.space_jacobian.fixed_view::<6, 1>(0, i);
+            out.set_column(i, &col);
+        }
         Ok(())
     }
 
