@@ -20,6 +20,8 @@ pub struct Cli {
 pub enum Command {
     /// Forward kinematics: keypoint frames and the end-effector pose as JSON.
     Fk(commands::fk::FkArgs),
+    /// Inverse kinematics for a target pose, or every node of a keyframe file.
+    Ik(commands::ik::IkArgs),
 }
 
 /// An error a command reports to the user (printed as `error: …`), with its exit code.
@@ -44,6 +46,7 @@ impl CliError {
 pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
     let result = match cli.command {
         Command::Fk(args) => commands::fk::run(&args, out),
+        Command::Ik(args) => commands::ik::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

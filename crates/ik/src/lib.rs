@@ -1,2 +1,12 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
+
+mod error;
+mod interpolation;
+mod solver;
+
+pub use error::IkError;
+pub use interpolation::{IkTrajectory, Keyframe, Mode, ik_interpolation, interpolate_targets};
+pub use solver::{
+    IkResult, IkSettings, IkWorkspace, LOCAL_RESTART_STEP, LOCAL_RESTARTS, Nullspace, Target, solve,
+};

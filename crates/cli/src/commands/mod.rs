@@ -1,4 +1,5 @@
 //! One module per subcommand: its argument struct and its `run`.
 
 pub mod fk;
+pub mod ik;
 pub mod robot;
