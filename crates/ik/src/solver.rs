@@ -2,7 +2,7 @@
 
 use armature_kinematics::{Chain, FkWorkspace};
 use armature_lie::SO3;
-use nalgebra::{Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
@@ -30,7 +30,7 @@ pub struct IkSettings {
     pub orientation_tolerance: f64,
     /// Iteration cap per attempt. Default 50.
     pub max_iterations: usize,
-    /// Initial damping λ of `(J Jᵀ + λ I)`. Default 1e-3.
+    /// Initial damping λ of `(J Jᵀ + λ I)`. Default 1e-2.
     pub damping: f64,
     /// Smallest damping the adaptation goes down to. Default 1e-9.
     pub min_damping: f64,
@@ -51,6 +51,10 @@ pub struct IkSettings {
     pub restarts: usize,
     /// Seed of the restart generator (results are reproducible). Default 0.
     pub rng_seed: u64,
+    /// Factor applied to λ after an accepted step (< 1). Default 0.5.
+    pub damping_decrease: f64,
+    /// Factor applied to λ after a rejected step (> 1). Default 4.
+    pub damping_increase: f64,
     /// Largest joint step per iteration (rad or m, ∞-norm); larger steps are scaled down,
     /// which keeps steps from singular seeds from jumping into limit minima. Default 0.5.
     pub max_step: f64,
@@ -62,7 +66,7 @@ impl Default for IkSettings {
             position_tolerance: 1e-6,
             orientation_tolerance: 1e-6,
             max_iterations: 50,
-            damping: 1e-3,
+            damping: 1e-2,
             min_damping: 1e-9,
             max_damping: 1.0,
             position_weight: 1.0,
@@ -72,6 +76,8 @@ impl Default for IkSettings {
             restarts: 0,
             rng_seed: 0,
             max_step: 0.5,
+            damping_decrease: 0.5,
+            damping_increase: 4.0,
         }
     }
 }
@@ -105,6 +111,12 @@ impl IkSettings {
         }
         if !(self.min_damping <= self.damping && self.damping <= self.max_damping) {
             return bad("damping", "must lie between min_damping and max_damping");
+        }
+        if !(self.damping_decrease > 0.0 && self.damping_decrease < 1.0) {
+            return bad("damping_decrease", "must be in (0, 1)");
+        }
+        if !(self.damping_increase > 1.0 && self.damping_increase.is_finite()) {
+            return bad("damping_increase", "must be a finite number above 1");
         }
         if !(self.nullspace_gain.is_finite() && (0.0..=1.0).contains(&self.nullspace_gain)) {
             return bad("nullspace_gain", "must be in [0, 1]");
@@ -162,6 +174,8 @@ pub struct IkResult {
     pub iterations: usize,
     /// Attempts made (1 + restarts used).
     pub attempts: usize,
+    /// Forward-kinematics evaluations over all attempts (iterations plus rejected trials).
+    pub evaluations: usize,
     /// Final position error (m).
     pub position_error: f64,
     /// Final orientation error (rad); 0 for position-only targets.
@@ -260,11 +274,16 @@ impl IkWorkspace {
 }
 
 /// Weighted residual `[w_p (p* − p); w_o log(R* Rᵀ)]` and the two unweighted error norms.
-fn residual(ws: &IkWorkspace, target: &Target, s: &IkSettings) -> (Vector6<f64>, f64, f64) {
+fn residual(
+    ws: &IkWorkspace,
+    target: &Target,
+    rt: &Option<Matrix3<f64>>,
+    s: &IkSettings,
+) -> (Vector6<f64>, f64, f64) {
     let (r, p) = ws.fk.ee_matrix();
     let ep = target.position - p;
-    let eo = match &target.orientation {
-        Some(rt) => SO3::from_matrix_unchecked(&(rt.matrix() * r.transpose())).log(),
+    let eo = match rt {
+        Some(rt) => SO3::from_matrix_unchecked(&(rt * r.transpose())).log(),
         None => Vector3::zeros(),
     };
     let res = Vector6::new(
@@ -317,6 +336,7 @@ pub fn solve(
     let mut best = (f64::INFINITY, 0.0, 0.0);
     let mut iterations = 0;
     let mut attempts = 0;
+    let mut evaluations = 0;
     for attempt in 0..=settings.restarts {
         attempts += 1;
         for i in 0..chain.dof() {
@@ -339,8 +359,9 @@ pub fn solve(
                 _ => seed[i],
             };
         }
-        let (cost, pe, oe, it) = attempt_solve(chain, target, settings, ws)?;
+        let (cost, pe, oe, it, ev) = attempt_solve(chain, target, settings, ws)?;
         iterations += it;
+        evaluations += ev;
         if cost < best.0 {
             best = (cost, pe, oe);
             ws.best.copy_from_slice(&ws.q);
@@ -354,26 +375,29 @@ pub fn solve(
         converged: converged(best.1, best.2, settings),
         iterations,
         attempts,
+        evaluations,
         position_error: best.1,
         orientation_error: best.2,
     })
 }
 
 /// One Levenberg–Marquardt attempt from `ws.q`; returns (cost, position error, orientation
-/// error, iterations) with the final configuration in `ws.q`.
+/// error, iterations, FK evaluations) with the final configuration in `ws.q`.
 fn attempt_solve(
     chain: &Chain,
     target: &Target,
     s: &IkSettings,
     ws: &mut IkWorkspace,
-) -> Result<(f64, f64, f64, usize), IkError> {
+) -> Result<(f64, f64, f64, usize, usize), IkError> {
     let n = chain.dof();
     let fk = |ws: &mut IkWorkspace, trial: bool| {
         let q = if trial { &ws.trial } else { &ws.q };
-        chain.forward(q, &mut ws.fk).map_err(|e| IkError::BadSeed(e.to_string()))
+        chain.forward_ee(q, &mut ws.fk).map_err(|e| IkError::BadSeed(e.to_string()))
     };
     fk(ws, false)?;
-    let (mut r, mut pe, mut oe) = residual(ws, target, s);
+    let mut evals = 1;
+    let rt = target.orientation.map(|o| o.matrix());
+    let (mut r, mut pe, mut oe) = residual(ws, target, &rt, s);
     let mut cost = r.norm_squared();
     let mut lambda = s.damping;
     let has_orientation = target.orientation.is_some();
@@ -408,13 +432,15 @@ fn attempt_solve(
             }
         }
         loop {
+            // J Jᵀ over the free columns (fixed-size rank-1 updates, vectorised).
             let mut jjt = Matrix6::zeros();
             let mut jz = Vector6::zeros();
             for i in 0..n {
                 if !ws.locked[i] {
-                    jjt += ws.jac[i] * ws.jac[i].transpose();
+                    let c = &ws.jac[i];
+                    jjt.ger(1.0, c, c, 1.0);
                     if use_null {
-                        jz += ws.jac[i] * ws.z[i];
+                        jz += c * ws.z[i];
                     }
                 }
             }
@@ -422,7 +448,7 @@ fn attempt_solve(
                 jjt[(k, k)] += lambda;
             }
             let Some(chol) = cholesky6(&jjt) else {
-                lambda *= 4.0;
+                lambda *= s.damping_increase;
                 if lambda > s.max_damping {
                     break;
                 }
@@ -459,23 +485,22 @@ fn attempt_solve(
                 continue;
             }
             fk(ws, true)?;
-            let (r_new, pe_new, oe_new) = residual(ws, target, s);
+            evals += 1;
+            let (r_new, pe_new, oe_new) = residual(ws, target, &rt, s);
             let c_new = r_new.norm_squared();
             if c_new < cost {
                 ws.q.copy_from_slice(&ws.trial);
                 (r, pe, oe, cost) = (r_new, pe_new, oe_new, c_new);
-                lambda = (lambda * 0.5).max(s.min_damping);
+                lambda = (lambda * s.damping_decrease).max(s.min_damping);
                 break;
             }
-            lambda *= 4.0;
+            lambda *= s.damping_increase;
             if lambda > s.max_damping {
                 break;
             }
         }
     }
-    // Leave the workspace's FK at the returned configuration.
-    fk(ws, false)?;
-    Ok((cost, pe, oe, it))
+    Ok((cost, pe, oe, it, evals))
 }
 
 #[cfg(test)]

@@ -166,6 +166,23 @@ impl Chain {
     /// assert!((ws.ee().translation() - nalgebra::Vector3::new(0.7, 0.0, 0.34)).norm() < 1e-15);
     /// ```
     pub fn forward(&self, q: &[f64], ws: &mut FkWorkspace) -> Result<(), KinematicsError> {
+        self.forward_impl::<true>(q, ws)
+    }
+
+    /// Like [`forward`](Self::forward) but only the end effector and the space Jacobian:
+    /// keypoint positions and partial frames are left as they were (the IK inner loop).
+    ///
+    /// # Errors
+    /// As [`forward`](Self::forward).
+    pub fn forward_ee(&self, q: &[f64], ws: &mut FkWorkspace) -> Result<(), KinematicsError> {
+        self.forward_impl::<false>(q, ws)
+    }
+
+    fn forward_impl<const FULL: bool>(
+        &self,
+        q: &[f64],
+        ws: &mut FkWorkspace,
+    ) -> Result<(), KinematicsError> {
         self.check_q(q)?;
         let n = self.dof();
         if ws.partial.len() != n + 1 || ws.keypoint_positions.len() != self.keypoints().len() {
@@ -177,7 +194,7 @@ impl Chain {
         let kps = self.keypoints();
         let mut k = 0;
         let (mut r, mut t) = (Matrix3::identity(), Vector3::zeros());
-        while k < kps.len() && kps[k].after == 0 {
+        while FULL && k < kps.len() && kps[k].after == 0 {
             ws.keypoint_positions[k] = Vector3::from(kps[k].position);
             k += 1;
         }
@@ -209,8 +226,10 @@ impl Chain {
                 t += r * tj;
                 r *= rj;
             }
-            ws.partial[i + 1] = (r, t);
-            while k < kps.len() && kps[k].after == i + 1 {
+            if FULL {
+                ws.partial[i + 1] = (r, t);
+            }
+            while FULL && k < kps.len() && kps[k].after == i + 1 {
                 ws.keypoint_positions[k] = r * Vector3::from(kps[k].position) + t;
                 k += 1;
             }
