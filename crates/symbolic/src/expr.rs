@@ -206,6 +206,23 @@ impl LieOp {
     }
 }
 
+/// A user-supplied differentiable function `ℝⁿ → ℝᵐ` used as one node of the graph: for
+/// quantities that have a good closed-form or library implementation with exact derivatives
+/// (e.g. exact capsule distances), where building them from elementary nodes would be slow or
+/// inexact.
+///
+/// `eval` must write all `m` values and the full `m × n` Jacobian (row-major) without
+/// allocating; the tape calls it once per evaluation. Its derivative must be exact: test it
+/// against finite differences like any other node.
+pub trait ExternalFunction: Send + Sync + core::fmt::Debug {
+    /// Name used in displays and constraint names.
+    fn name(&self) -> &str;
+    /// Number of outputs `m` (1 gives a scalar expression).
+    fn n_outputs(&self) -> usize;
+    /// Values into `values` (length m) and the Jacobian into `jacobian` (m × n, row-major).
+    fn eval(&self, inputs: &[f64], values: &mut [f64], jacobian: &mut [f64]);
+}
+
 #[derive(Debug)]
 pub(crate) enum Op {
     Variable(Arc<str>),
@@ -232,6 +249,7 @@ pub(crate) enum Op {
         batch: Arc<[f64]>,
         cols: usize,
     },
+    External(Arc<dyn ExternalFunction>),
     Invalid(SymbolicError),
 }
 
@@ -841,6 +859,25 @@ impl Expr {
     }
 }
 
+impl Expr {
+    /// An [`ExternalFunction`] applied to the entries of `inputs` (concatenated in order):
+    /// a scalar for one output, else `vector(m)`.
+    pub fn external(f: Arc<dyn ExternalFunction>, inputs: &[Expr]) -> Expr {
+        if inputs.is_empty() {
+            return invalid(SymbolicError::Empty { op: "external" });
+        }
+        let refs: Vec<&Expr> = inputs.iter().collect();
+        if let Some(e) = first_error(&refs) {
+            return e;
+        }
+        let m = f.n_outputs();
+        if m == 0 {
+            return invalid(SymbolicError::Empty { op: "external (no outputs)" });
+        }
+        node(Op::External(f), Shape::of_block(m, 1), inputs.to_vec())
+    }
+}
+
 impl From<f64> for Expr {
     fn from(v: f64) -> Expr {
         Expr::scalar(v)
@@ -973,6 +1010,16 @@ impl fmt::Display for Expr {
             Op::QuatToMatrix => write!(f, "quat_to_matrix({})", a[0]),
             Op::Lie(l) => write!(f, "{}({})", l.name(), a[0]),
             Op::Vmap { body, .. } => write!(f, "vmap({body})"),
+            Op::External(x) => {
+                write!(f, "{}(", x.name())?;
+                for (i, y) in a.iter().enumerate() {
+                    if i > 0 {
+                        write!(f, ", ")?;
+                    }
+                    write!(f, "{y}")?;
+                }
+                write!(f, ")")
+            }
             Op::Invalid(e) => write!(f, "<error: {e}>"),
         }
     }

@@ -13,7 +13,7 @@ mod tape;
 
 pub use constraint::{Constraint, Nodes, Timing};
 pub use error::SymbolicError;
-pub use expr::{BinaryOp, Expr, LieOp, Norm, UnaryOp};
+pub use expr::{BinaryOp, Expr, ExternalFunction, LieOp, Norm, UnaryOp};
 pub use function::{DENSE_MAX_INPUTS, DerivativeMode, Function, InputSlot};
 pub use parser::{SymbolTable, parse_constraint, parse_expr};
 pub use pattern::SparsityPattern;

@@ -35,6 +35,7 @@ enum Key {
     Binary(BinaryOp, ArgKey, ArgKey),
     Reduce(Reduce, Vec<ArgKey>),
     Lie(LieOp, Vec<ArgKey>),
+    External(usize, Vec<ArgKey>),
 }
 
 /// A registered parameter of the function being compiled.
@@ -513,6 +514,13 @@ impl<'a> Builder<'a> {
                 let a = self.lower(&n.args[0], outer)?;
                 self.lower_lie(*op, &a)
             }
+            Op::External(func) => {
+                let mut a = Vec::new();
+                for x in &n.args {
+                    a.extend(self.lower(x, outer.as_deref_mut())?);
+                }
+                self.external(func, &a)
+            }
             Op::Vmap { body, placeholder, batch, cols } => {
                 if self.placeholder.is_some() {
                     return Err(SymbolicError::BadData {
@@ -703,6 +711,50 @@ impl<'a> Builder<'a> {
             out.push(self.lincomb(uv[i], &[(-u2v[i], sn), (-uv[i], cs), (vp[i] + u2v[i], phi)]));
         }
         out
+    }
+
+    fn external(
+        &mut self,
+        func: &std::sync::Arc<dyn crate::expr::ExternalFunction>,
+        args: &[Arg],
+    ) -> Vec<Arg> {
+        let m = func.n_outputs();
+        // Constant operands fold at compile time.
+        if args.iter().all(|a| matches!(a, Arg::Const(_))) {
+            let x: Vec<f64> =
+                args.iter().map(|a| if let Arg::Const(c) = a { *c } else { 0.0 }).collect();
+            let mut v = vec![0.0; m];
+            let mut j = vec![0.0; m * x.len()];
+            func.eval(&x, &mut v, &mut j);
+            return v.into_iter().map(Arg::Const).collect();
+        }
+        let id = std::sync::Arc::as_ptr(func) as *const () as usize;
+        let key = Key::External(id, args.iter().map(|&a| a.into()).collect());
+        if let Some(&s) = self.cse.get(&key) {
+            return (0..m as u32).map(|k| Arg::Slot(s + k)).collect();
+        }
+        let index = match self.tape.externals.iter().position(|f| std::sync::Arc::ptr_eq(f, func)) {
+            Some(i) => i,
+            None => {
+                self.tape.externals.push(func.clone());
+                self.tape.externals.len() - 1
+            }
+        } as u32;
+        let (a0, maps, deps) = self.multi(args);
+        let first = self.new_slot(deps.clone());
+        for _ in 1..m {
+            self.new_slot(deps.clone());
+        }
+        self.tape.instrs.push(Instr::External {
+            func: index,
+            a0,
+            n: args.len() as u32,
+            out: first,
+            nout: m as u32,
+            maps,
+        });
+        self.cse.insert(key, first);
+        (0..m as u32).map(|k| Arg::Slot(first + k)).collect()
     }
 
     // ----- vmap -----------------------------------------------------------------------------

@@ -112,6 +112,15 @@ pub(crate) enum Instr {
         nout: u32,
         maps: u32,
     },
+    /// A user function; outputs `out..out+nout`, local Jacobian into scratch like `Lie`.
+    External {
+        func: u32,
+        a0: u32,
+        n: u32,
+        out: u32,
+        nout: u32,
+        maps: u32,
+    },
 }
 
 /// A compiled vmap body: a tape whose inputs are the captured outer values and whose
@@ -134,6 +143,7 @@ pub(crate) struct Tape {
     pub(crate) dep_off: Vec<u32>,
     pub(crate) dep_cols: Vec<u32>,
     pub(crate) vmaps: Vec<VmapBody>,
+    pub(crate) externals: Vec<std::sync::Arc<dyn crate::expr::ExternalFunction>>,
     pub(crate) n_inputs: usize,
     /// Unique per compilation: a workspace holds this tape's constants and input rows, so it
     /// must not be used with another tape.
@@ -162,12 +172,15 @@ impl Tape {
     }
 
     pub(crate) fn workspace(&self) -> Workspace {
-        let max_args = self
+        // Scratch holds a local Jacobian (nout × n) plus operands and values, or a vmap's 2n
+        // values.
+        let scratch_len = self
             .instrs
             .iter()
             .map(|i| match i {
-                Instr::Reduce { n, .. } | Instr::Lie { n, .. } | Instr::Vmap { n, .. } => {
-                    *n as usize
+                Instr::Reduce { n, .. } | Instr::Vmap { n, .. } => 2 * *n as usize,
+                Instr::Lie { n, nout, .. } | Instr::External { n, nout, .. } => {
+                    (*n as usize + 1) * (*nout as usize + 1)
                 }
                 _ => 0,
             })
@@ -181,7 +194,7 @@ impl Tape {
             tape_id: self.id,
             val,
             dval: vec![0.0; self.dep_cols.len()],
-            scratch: vec![0.0; 2 * max_args + 256],
+            scratch: vec![0.0; scratch_len + 256],
             sub: self.vmaps.iter().map(|v| v.tape.workspace()).collect(),
         }
     }
@@ -258,8 +271,27 @@ impl Tape {
                 Instr::Vmap { body, a0, n, out, nout, maps } => {
                     self.eval_vmap(body, a0, n, out, nout, maps, ws, jac);
                 }
+                Instr::External { func, a0, n, out, nout, maps } => {
+                    self.eval_external(func, a0, n, out, nout, ws);
+                    if jac {
+                        self.scatter_multi(ws, a0, n, out, nout, maps);
+                    }
+                }
             }
         }
+    }
+
+    /// Runs a user function: operands gathered after the local Jacobian in scratch, values
+    /// into the output slots, Jacobian into `scratch[0..nout·n]`.
+    fn eval_external(&self, func: u32, a0: u32, n: u32, out: u32, nout: u32, ws: &mut Workspace) {
+        let (n, m) = (n as usize, nout as usize);
+        let (jac, rest) = ws.scratch.split_at_mut(m * n);
+        let (inputs, values) = rest.split_at_mut(n);
+        for k in 0..n {
+            inputs[k] = ws.val[self.args[a0 as usize + k] as usize];
+        }
+        self.externals[func as usize].eval(inputs, &mut values[..m], jac);
+        ws.val[out as usize..out as usize + m].copy_from_slice(&values[..m]);
     }
 
     /// Row stride of dense mode: the input count rounded up to a multiple of 4 (≤ 16), so
@@ -371,6 +403,12 @@ impl Tape {
                 }
                 Instr::Lie { op, a0, n, out, nout, .. } => {
                     self.eval_lie(op, a0, n, out, nout, ws);
+                    if jac {
+                        self.dense_multi::<N>(ws, a0, n, out, nout);
+                    }
+                }
+                Instr::External { func, a0, n, out, nout, .. } => {
+                    self.eval_external(func, a0, n, out, nout, ws);
                     if jac {
                         self.dense_multi::<N>(ws, a0, n, out, nout);
                     }

@@ -423,3 +423,61 @@ fn parser_errors_point_at_the_column() {
             .contains("a comparison is not allowed here")
     );
 }
+
+/// `f(a, b, c) = [a·b, sin(a) + c²]` with its exact Jacobian, as an external function.
+#[derive(Debug)]
+struct Demo;
+
+impl armature_symbolic::ExternalFunction for Demo {
+    fn name(&self) -> &str {
+        "demo"
+    }
+    fn n_outputs(&self) -> usize {
+        2
+    }
+    fn eval(&self, x: &[f64], v: &mut [f64], j: &mut [f64]) {
+        v[0] = x[0] * x[1];
+        v[1] = x[0].sin() + x[2] * x[2];
+        j.copy_from_slice(&[x[1], x[0], 0.0, x[0].cos(), 0.0, 2.0 * x[2]]);
+    }
+}
+
+#[test]
+fn external_functions_compose_with_the_graph() {
+    let f: std::sync::Arc<dyn armature_symbolic::ExternalFunction> = std::sync::Arc::new(Demo);
+    let x = Expr::variable("x", 3);
+    let e = Expr::external(f.clone(), &[x.at(0).square(), x.slice(1, 3).sin()]);
+    assert_eq!(e.shape().unwrap(), Shape::Vector(2));
+    assert_eq!(format!("{}", Expr::external(f.clone(), &[x.clone()])), "demo(x)");
+    let out = &e * 2.0 + x.at(2);
+    for fun in both_modes(&[out.clone()], &[&[x.clone()]]) {
+        for p in [[0.3, -0.7, 1.1], [1.2, 0.4, -0.9]] {
+            let (err, covered) = check_against_fd(&fun, &p, 1e-6);
+            assert!(err < 1e-8 && covered, "{err}");
+            let (v, _) = dense_jacobian(&fun, &p);
+            let (a, b, c) = (p[0] * p[0], p[1].sin(), p[2].sin());
+            assert!((v[0] - (2.0 * a * b + p[2])).abs() < 1e-14);
+            assert!((v[1] - (2.0 * (a.sin() + c * c) + p[2])).abs() < 1e-14);
+        }
+    }
+    // The same call twice is evaluated once; constant operands fold at compile time.
+    let twice = Function::compile(
+        &[e.sum() + Expr::external(f.clone(), &[x.at(0).square(), x.slice(1, 3).sin()]).sum()],
+        &[&[x.clone()]],
+    )
+    .unwrap();
+    let once = Function::compile(&[e.sum()], &[&[x.clone()]]).unwrap();
+    assert_eq!(
+        twice.instruction_count(),
+        once.instruction_count() + 1,
+        "only the final add is new"
+    );
+    let folded = Function::compile(
+        &[Expr::external(f.clone(), &[Expr::constant_vector(&[1.0, 2.0, 3.0])]) + x.at(0)],
+        &[&[x.clone()]],
+    )
+    .unwrap();
+    let (v, _) = dense_jacobian(&folded, &[0.0, 0.0, 0.0]);
+    assert_eq!(v, vec![2.0, 1f64.sin() + 9.0]);
+    assert!(Expr::external(f, &[]).shape().is_err());
+}
