@@ -22,6 +22,8 @@ pub enum Command {
     Fk(commands::fk::FkArgs),
     /// Inverse kinematics for a target pose, or every node of a keyframe file.
     Ik(commands::ik::IkArgs),
+    /// Signed distances, witness points and gradients of capsule links and obstacles.
+    Collide(commands::collide::CollideArgs),
 }
 
 /// An error a command reports to the user (printed as `error: …`), with its exit code.
@@ -47,6 +49,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
     let result = match cli.command {
         Command::Fk(args) => commands::fk::run(&args, out),
         Command::Ik(args) => commands::ik::run(&args, out),
+        Command::Collide(args) => commands::collide::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

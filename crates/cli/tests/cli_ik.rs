@@ -135,3 +135,13 @@ fn bad_input_exits_2() {
     let (code, _, _) = armature(&["ik"]);
     assert_eq!(code, 2, "neither --pos nor --keyframes");
 }
+
+/// The README's main-job command works on the shipped example file.
+#[test]
+fn readme_example_file_solves() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/pick-and-place-keyframes.toml");
+    let (code, out, err) = armature(&["ik", "--keyframes", path, "--sequential"]);
+    assert_eq!(code, 0, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["nodes"].as_array().unwrap().len(), 11);
+}

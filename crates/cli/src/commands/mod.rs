@@ -1,5 +1,6 @@
 //! One module per subcommand: its argument struct and its `run`.
 
+pub mod collide;
 pub mod fk;
 pub mod ik;
 pub mod robot;
