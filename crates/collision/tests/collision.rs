@@ -45,6 +45,32 @@ fn reference_segment_distance(a0: &V, a1: &V, b0: &V, b1: &V) -> f64 {
     f(0.5 * (lo + hi)).min(f(0.0)).min(f(1.0))
 }
 
+/// Closed-form segment–segment distance, by a different route than parry's clamped
+/// parameters: the unconstrained minimiser of |a(s) − b(t)|² from its 2×2 normal equations if
+/// it lies in [0, 1]², else the best of the four boundary point–segment distances (the
+/// minimum of a convex quadratic over a square is interior or on an edge).
+fn closed_form_segment_distance(a0: &V, a1: &V, b0: &V, b1: &V) -> f64 {
+    let point_seg = |p: &V, q0: &V, q1: &V| {
+        let d = q1 - q0;
+        let l2 = d.norm_squared();
+        let t = if l2 > 0.0 { ((p - q0).dot(&d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+        (p - (q0 + d * t)).norm()
+    };
+    let (u, v, w) = (a1 - a0, b1 - b0, a0 - b0);
+    let (a, b, c, d, e) = (u.dot(&u), u.dot(&v), v.dot(&v), u.dot(&w), v.dot(&w));
+    let det = a * c - b * b;
+    if det > 1e-12 * a * c {
+        let (s, t) = ((b * e - c * d) / det, (a * e - b * d) / det);
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            return (w + u * s - v * t).norm();
+        }
+    }
+    point_seg(a0, b0, b1)
+        .min(point_seg(a1, b0, b1))
+        .min(point_seg(b0, a0, a1))
+        .min(point_seg(b1, a0, a1))
+}
+
 fn sampled_segment_distance(a0: &V, a1: &V, b0: &V, b1: &V, n: usize) -> f64 {
     let mut best = f64::INFINITY;
     for i in 0..=n {
