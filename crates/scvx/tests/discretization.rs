@@ -1,0 +1,148 @@
+//! The discretization's matrices are the exact derivatives of its propagation map, and the
+//! propagation is exact where RK4 must be.
+
+use armature_scvx::{DiscretizationSettings, Dynamics};
+use armature_symbolic::Expr;
+
+/// A pendulum-on-a-cart-like nonlinear system: 3 states, one FOH and one ZOH control.
+fn nonlinear() -> Dynamics {
+    let x = Expr::variable("x", 3);
+    let u = Expr::variable("u", 2);
+    let rhs = [
+        x.at(1),
+        -(x.at(0).sin()) * 9.81 + u.at(0) * x.at(2).cos() - x.at(1) * 0.1,
+        u.at(1) * 2.0 + x.at(0) * x.at(1),
+    ];
+    let f = Expr::concat(&rhs);
+    Dynamics::new(&[x], &[u], &[f], &[true, false]).unwrap()
+}
+
+fn propagate(d: &Dynamics, x: &[f64], u: &[f64], s: &[f64]) -> Vec<f64> {
+    let mut ws = d.workspace();
+    let mut out = d.output(s.len());
+    d.discretize(x, u, s, &DiscretizationSettings::default(), &mut ws, &mut out).unwrap();
+    out.x_prop
+}
+
+#[test]
+fn matrices_are_derivatives_of_the_propagation_map() {
+    let d = nonlinear();
+    let (n, mu) = (3, 2);
+    let m = mu + 1;
+    let nodes = 4;
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
+    let s: Vec<f64> = vec![1.5, 1.2, 2.0, 2.0];
+    let mut ws = d.workspace();
+    let mut out = d.output(nodes);
+    d.discretize(&x, &u, &s, &DiscretizationSettings::default(), &mut ws, &mut out).unwrap();
+    let h = 1e-6;
+    for seg in 0..nodes - 1 {
+        // ∂x_prop/∂x_k = A_k.
+        for j in 0..n {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[seg * n + j] += h;
+            xm[seg * n + j] -= h;
+            let (pp, pm) = (propagate(&d, &xp, &u, &s), propagate(&d, &xm, &u, &s));
+            for r in 0..n {
+                let fd = (pp[seg * n + r] - pm[seg * n + r]) / (2.0 * h);
+                let a = out.a[seg * n * n + r * n + j];
+                assert!((a - fd).abs() < 1e-7, "A[{seg}][{r},{j}] = {a} vs FD {fd}");
+            }
+        }
+        // ∂x_prop/∂u_k = B⁻ (control columns), ∂x_prop/∂u_{k+1} = B⁺.
+        for i in 0..mu {
+            for (node, mat, name) in [(seg, &out.b_minus, "B-"), (seg + 1, &out.b_plus, "B+")] {
+                let (mut up, mut um) = (u.clone(), u.clone());
+                up[node * mu + i] += h;
+                um[node * mu + i] -= h;
+                let (pp, pm) = (propagate(&d, &x, &up, &s), propagate(&d, &x, &um, &s));
+                for r in 0..n {
+                    let fd = (pp[seg * n + r] - pm[seg * n + r]) / (2.0 * h);
+                    let b = mat[seg * n * m + r * m + i];
+                    assert!((b - fd).abs() < 1e-7, "{name}[{seg}][{r},{i}] = {b} vs FD {fd}");
+                }
+            }
+        }
+        // ∂x_prop/∂s_k is the last column of B⁻; B⁺ has none (s is zero-order hold).
+        let (mut sp, mut sm) = (s.clone(), s.clone());
+        sp[seg] += h;
+        sm[seg] -= h;
+        let (pp, pm) = (propagate(&d, &x, &u, &sp), propagate(&d, &x, &u, &sm));
+        for r in 0..n {
+            let fd = (pp[seg * n + r] - pm[seg * n + r]) / (2.0 * h);
+            assert!((out.b_minus[seg * n * m + r * m + mu] - fd).abs() < 1e-7);
+            assert_eq!(out.b_plus[seg * n * m + r * m + mu], 0.0);
+        }
+        // The ZOH control has no B⁺ column.
+        for r in 0..n {
+            assert_eq!(out.b_plus[seg * n * m + r * m + 1], 0.0);
+        }
+    }
+    for seg in 0..nodes - 1 {
+        for r in 0..n {
+            assert!(
+                (out.defect[seg * n + r] - (x[(seg + 1) * n + r] - out.x_prop[seg * n + r])).abs()
+                    < 1e-15
+            );
+        }
+    }
+}
+
+/// Double integrator with FOH acceleration: the state is a cubic in τ, which RK4 integrates
+/// exactly, so x_prop equals the closed form to round-off (and one substep suffices).
+#[test]
+fn double_integrator_is_exact() {
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let a = Expr::variable("a", 1);
+    let d = Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
+        .unwrap();
+    let nodes = 3;
+    let x = [0.3, -0.2, 0.0, 0.0, 0.0, 0.0];
+    let u = [1.0, -2.0, 0.5];
+    let s = [2.0, 0.5, 0.5];
+    for substeps in [1, 4] {
+        let mut ws = d.workspace();
+        let mut out = d.output(nodes);
+        d.discretize(&x, &u, &s, &DiscretizationSettings { substeps }, &mut ws, &mut out).unwrap();
+        // Segment 0: duration T = s·Δτ = 1, acceleration linear from 1 to −2.
+        let (t, a0, a1) = (2.0 * 0.5, 1.0, -2.0);
+        let v_end = -0.2 + a0 * t + (a1 - a0) * t / 2.0;
+        let p_end = 0.3 - 0.2 * t + a0 * t * t / 2.0 + (a1 - a0) * t * t / 6.0;
+        assert!((out.x_prop[0] - p_end).abs() < 1e-14, "{}", out.x_prop[0]);
+        assert!((out.x_prop[1] - v_end).abs() < 1e-14);
+        // A = [[1, T], [0, 1]].
+        assert!(
+            (out.a[0] - 1.0).abs() < 1e-14
+                && (out.a[1] - t).abs() < 1e-14
+                && out.a[2].abs() < 1e-14
+        );
+    }
+}
+
+#[test]
+fn size_errors_are_reported() {
+    let d = nonlinear();
+    let mut ws = d.workspace();
+    let mut out = d.output(3);
+    let err = d.discretize(
+        &[0.0; 8],
+        &[0.0; 6],
+        &[1.0; 3],
+        &DiscretizationSettings::default(),
+        &mut ws,
+        &mut out,
+    );
+    assert!(err.unwrap_err().to_string().contains("x of 9 (got 8)"));
+    let x = Expr::variable("x", 2);
+    let u = Expr::variable("u", 1);
+    assert!(
+        Dynamics::new(&[x.clone()], &[u.clone()], &[x.at(0)], &[true]).is_err(),
+        "1 entry for 2 states"
+    );
+    assert!(
+        Dynamics::new(&[x.clone()], &[u.clone()], &[x.clone()], &[true, false]).is_err(),
+        "mask length"
+    );
+}
