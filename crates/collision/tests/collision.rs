@@ -102,6 +102,12 @@ fn distances_match_brute_force_and_closed_form() {
             let (exact, sampled) = if let Some(b) = model.links().iter().find(|l| l.name == pair.b)
             {
                 let (b0, b1) = (kp[b.start], kp[b.end]);
+                let closed = closed_form_segment_distance(&a0, &a1, &b0, &b1) - a.radius - b.radius;
+                assert!(
+                    (r.distance - closed).abs() < 1e-9,
+                    "{} vs closed form {closed}",
+                    r.distance
+                );
                 (
                     reference_segment_distance(&a0, &a1, &b0, &b1) - a.radius - b.radius,
                     sampled_segment_distance(&a0, &a1, &b0, &b1, 200) - a.radius - b.radius,
@@ -223,6 +229,8 @@ fn obstacle_shapes_match_brute_force() {
             (cc.distance - (reference_segment_distance(&a0, &a1, &c0, &c1) - r - 0.02)).abs()
                 < 1e-9
         );
+        let closed = closed_form_segment_distance(&a0, &a1, &c0, &c1) - r - 0.02;
+        assert!((cc.distance - closed).abs() < 1e-9, "{} vs closed form {closed}", cc.distance);
     }
 }
 
