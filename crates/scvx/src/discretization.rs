@@ -26,7 +26,7 @@
 use armature_symbolic::{Expr, Function, SymbolicError, Workspace};
 
 /// Integrator settings.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct DiscretizationSettings {
     /// RK4 steps per segment. Default 10.
     pub substeps: usize,

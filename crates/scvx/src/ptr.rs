@@ -1,0 +1,510 @@
+//! The penalized-trust-region (PTR) loop with Clarabel subproblems.
+//!
+//! # Subproblem
+//! Variables `z = [X (N·n) | U (N·m) | S (N) | ν⁺ ((N−1)·n) | ν⁻ ((N−1)·n)]`, around the
+//! reference `z̄` with its discretization:
+//!
+//! ```text
+//! minimise   w_t·Δτ·Σ_{k<N−1} s_k  +  λ_vc·Σ(ν⁺ + ν⁻)  +  λ_tr·‖(X, U, S) − (X̄, Ū, S̄)‖²
+//! subject to x_{k+1} = A_k x_k + B⁻_k [u_k; s_k] + B⁺_k u_{k+1} + c_k + ν⁺_k − ν⁻_k
+//!            (c_k = x_prop_k − A_k x̄_k − B⁻_k [ū_k; s̄_k] − B⁺_k ū_{k+1})
+//!            fixed initial / final state components, s_{N−1} = s_{N−2},
+//!            box bounds on x, u, s, and ν± ≥ 0.
+//! ```
+//!
+//! The trust-region norm is measured in scaled variables `(z − z̄)/S` with
+//! `S = max(1, (max − min)/2)` from each variable's bounds, so a dilation with range [0.1, 10]
+//! may move as far, relative to its range, as an acceleration in [−1, 1].
+//!
+//! The constraint matrix's pattern is built once with a value source per nonzero; each
+//! iteration refills the values and updates Clarabel in place (presolve off).
+//!
+//! # Acceptance
+//! Merit `J(z) = w_t·t_f(z) + λ_vc·Σ|defect(z)|` on the nonlinear defects. With the
+//! subproblem's linear prediction `L(z*) = w_t·t_f(z*) + λ_vc·Σ|ν*|`,
+//! `ρ = (J(z̄) − J(z*)) / (J(z̄) − L(z*))`. A step with `ρ < η₀` is rejected and λ_tr
+//! doubles (so the next subproblem differs — no identical re-solves); otherwise it is
+//! accepted and λ_tr adapts (×2 below η₁, ×½ above η₂). Converged when the accepted step's
+//! `‖Δz‖² < ε_tr` and the largest nonlinear defect is below `ε_defect`.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT,
+    ZeroConeT,
+};
+use serde::Serialize;
+
+use crate::{Discretization, DiscretizationSettings, DiscretizationWorkspace, Dynamics};
+
+/// The optimal control problem in dynamics form.
+#[derive(Debug, Clone)]
+pub struct Ocp {
+    /// Compiled dynamics.
+    pub dynamics: Dynamics,
+    /// Number of nodes N (≥ 2).
+    pub nodes: usize,
+    /// State bounds (±∞ for none).
+    pub x_min: Vec<f64>,
+    /// State bounds.
+    pub x_max: Vec<f64>,
+    /// Control bounds.
+    pub u_min: Vec<f64>,
+    /// Control bounds.
+    pub u_max: Vec<f64>,
+    /// Fixed initial components (`None` = free).
+    pub x_initial: Vec<Option<f64>>,
+    /// Fixed final components (`None` = free).
+    pub x_final: Vec<Option<f64>>,
+    /// Bounds of the time dilation `s` (total time = s·1 for a uniform grid).
+    pub s_min: f64,
+    /// Bounds of the time dilation.
+    pub s_max: f64,
+    /// Weight of the final time in the cost (0: fixed-time feasibility).
+    pub time_weight: f64,
+}
+
+/// PTR settings with documented defaults.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PtrSettings {
+    /// Initial trust-region weight λ_tr. Default 1.
+    pub lam_tr: f64,
+    /// Bounds of λ_tr. Default [1e-4, 1e6].
+    pub lam_tr_min: f64,
+    /// Bounds of λ_tr.
+    pub lam_tr_max: f64,
+    /// Virtual-control weight λ_vc (exact-penalty weight: must exceed the dynamics
+    /// multipliers; larger values make the merit dominated by second-order defects and
+    /// slow the trust region). Default 1e2.
+    pub lam_vc: f64,
+    /// Convergence: squared scaled step norm (OpenSCvx's ε_tr). Default 1e-4.
+    pub eps_tr: f64,
+    /// Convergence: largest nonlinear defect. Default 1e-6.
+    pub eps_defect: f64,
+    /// Acceptance thresholds η₀ < η₁ < η₂. Default 0, 0.1, 0.7.
+    pub eta: [f64; 3],
+    /// Iteration cap. Default 100.
+    pub max_iterations: usize,
+    /// Integrator settings.
+    pub discretization: DiscretizationSettings,
+}
+
+impl Default for PtrSettings {
+    fn default() -> Self {
+        PtrSettings {
+            lam_tr: 1.0,
+            lam_tr_min: 1e-4,
+            lam_tr_max: 1e6,
+            lam_vc: 1e2,
+            eps_tr: 1e-4,
+            eps_defect: 1e-6,
+            eta: [0.0, 0.1, 0.7],
+            max_iterations: 100,
+            discretization: DiscretizationSettings::default(),
+        }
+    }
+}
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum PtrStatus {
+    /// Both criteria met.
+    Converged,
+    /// The iteration cap was reached.
+    MaxIterations,
+    /// λ_tr hit its cap without an acceptable step.
+    Stalled,
+    /// Clarabel reported the subproblem infeasible.
+    SubproblemInfeasible,
+    /// Clarabel failed numerically.
+    NumericalFailure,
+}
+
+/// One iteration's record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Iteration {
+    /// 1-based iteration number.
+    pub iteration: usize,
+    /// Whether the step was accepted.
+    pub accepted: bool,
+    /// ‖Δz‖² of the step (scaled variables).
+    pub j_tr: f64,
+    /// Σ|ν| of the subproblem.
+    pub j_vc: f64,
+    /// Largest nonlinear defect of the candidate.
+    pub max_defect: f64,
+    /// Final time of the candidate.
+    pub final_time: f64,
+    /// Actual / predicted merit reduction.
+    pub rho: f64,
+    /// λ_tr used.
+    pub lam_tr: f64,
+}
+
+/// The outcome: the last accepted trajectory and the history.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PtrResult {
+    /// How it ended.
+    pub status: PtrStatus,
+    /// States (N×n, row-major).
+    pub x: Vec<f64>,
+    /// Controls (N×m).
+    pub u: Vec<f64>,
+    /// Dilations (N).
+    pub s: Vec<f64>,
+    /// `Δτ·Σ s_k`.
+    pub final_time: f64,
+    /// Per-iteration records.
+    pub history: Vec<Iteration>,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    Const(f64),
+    A(usize),
+    Bm(usize),
+    Bp(usize),
+}
+
+/// The PTR solver for one [`Ocp`], with its subproblem pattern built once.
+#[derive(Debug)]
+pub struct Ptr {
+    ocp: Ocp,
+    settings: PtrSettings,
+    n_vars: usize,
+    a_colptr: Vec<usize>,
+    a_rowval: Vec<usize>,
+    sources: Vec<Source>,
+    b: Vec<f64>,
+    /// Row index of the first dynamics row (ZeroCone rows come first).
+    n_zero: usize,
+    n_nonneg: usize,
+    dws: DiscretizationWorkspace,
+}
+
+impl Ptr {
+    fn layout(&self) -> (usize, usize, usize, usize) {
+        let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        (nn * n, nn * n + nn * m, nn * n + nn * m + nn, (nn - 1) * n)
+    }
+
+    /// Builds the solver (the subproblem pattern is computed here, once).
+    pub fn new(ocp: Ocp, settings: PtrSettings) -> Ptr {
+        let (n, m, nn) = (ocp.dynamics.n_x(), ocp.dynamics.n_u(), ocp.nodes);
+        let mc = m + 1;
+        let x0 = 0;
+        let u0 = nn * n;
+        let s0 = u0 + nn * m;
+        let vp0 = s0 + nn;
+        let vm0 = vp0 + (nn - 1) * n;
+        let n_vars = vm0 + (nn - 1) * n;
+        let mut trip: Vec<(usize, usize, Source)> = Vec::new();
+        let mut b = Vec::new();
+        let mut row = 0;
+        // Dynamics rows: A x_k − x_{k+1} + B⁻[u_k; s_k] + B⁺ u_{k+1} + ν⁺ − ν⁻ = −c_k.
+        for k in 0..nn - 1 {
+            for r in 0..n {
+                for j in 0..n {
+                    trip.push((row, x0 + k * n + j, Source::A(k * n * n + r * n + j)));
+                }
+                trip.push((row, x0 + (k + 1) * n + r, Source::Const(-1.0)));
+                for i in 0..m {
+                    trip.push((row, u0 + k * m + i, Source::Bm(k * n * mc + r * mc + i)));
+                    trip.push((row, u0 + (k + 1) * m + i, Source::Bp(k * n * mc + r * mc + i)));
+                }
+                trip.push((row, s0 + k, Source::Bm(k * n * mc + r * mc + m)));
+                trip.push((row, vp0 + k * n + r, Source::Const(1.0)));
+                trip.push((row, vm0 + k * n + r, Source::Const(-1.0)));
+                b.push(0.0);
+                row += 1;
+            }
+        }
+        for (i, v) in ocp.x_initial.iter().enumerate() {
+            if let Some(v) = v {
+                trip.push((row, x0 + i, Source::Const(1.0)));
+                b.push(*v);
+                row += 1;
+            }
+        }
+        for (i, v) in ocp.x_final.iter().enumerate() {
+            if let Some(v) = v {
+                trip.push((row, x0 + (nn - 1) * n + i, Source::Const(1.0)));
+                b.push(*v);
+                row += 1;
+            }
+        }
+        trip.push((row, s0 + nn - 1, Source::Const(1.0)));
+        trip.push((row, s0 + nn - 2, Source::Const(-1.0)));
+        b.push(0.0);
+        row += 1;
+        let n_zero = row;
+        // Inequalities `a·z ≤ b` as rows of the nonnegative cone.
+        let ineq = |col: usize,
+                    sign: f64,
+                    bound: f64,
+                    trip: &mut Vec<(usize, usize, Source)>,
+                    b: &mut Vec<f64>,
+                    row: &mut usize| {
+            if bound.is_finite() {
+                trip.push((*row, col, Source::Const(sign)));
+                b.push(sign * bound);
+                *row += 1;
+            }
+        };
+        for k in 0..nn {
+            for i in 0..n {
+                ineq(x0 + k * n + i, 1.0, ocp.x_max[i], &mut trip, &mut b, &mut row);
+                ineq(x0 + k * n + i, -1.0, ocp.x_min[i], &mut trip, &mut b, &mut row);
+            }
+            for i in 0..m {
+                ineq(u0 + k * m + i, 1.0, ocp.u_max[i], &mut trip, &mut b, &mut row);
+                ineq(u0 + k * m + i, -1.0, ocp.u_min[i], &mut trip, &mut b, &mut row);
+            }
+            ineq(s0 + k, 1.0, ocp.s_max, &mut trip, &mut b, &mut row);
+            ineq(s0 + k, -1.0, ocp.s_min, &mut trip, &mut b, &mut row);
+        }
+        for c in vp0..n_vars {
+            ineq(c, -1.0, 0.0, &mut trip, &mut b, &mut row);
+        }
+        let n_nonneg = row - n_zero;
+        trip.sort_by_key(|t| (t.1, t.0));
+        let mut a_colptr = vec![0; n_vars + 1];
+        for t in &trip {
+            a_colptr[t.1 + 1] += 1;
+        }
+        for c in 0..n_vars {
+            a_colptr[c + 1] += a_colptr[c];
+        }
+        let a_rowval = trip.iter().map(|t| t.0).collect();
+        let sources = trip.iter().map(|t| t.2).collect();
+        let dws = ocp.dynamics.workspace();
+        Ptr { ocp, settings, n_vars, a_colptr, a_rowval, sources, b, n_zero, n_nonneg, dws }
+    }
+
+    fn merit(&self, s: &[f64], d: &Discretization, lam_vc: f64) -> (f64, f64, f64) {
+        let nn = self.ocp.nodes;
+        let dtau = 1.0 / (nn - 1) as f64;
+        let tf = dtau * s[..nn - 1].iter().sum::<f64>();
+        let l1: f64 = d.defect.iter().map(|x| x.abs()).sum();
+        let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        (self.ocp.time_weight * tf + lam_vc * l1, tf, max)
+    }
+
+    /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N).
+    ///
+    /// # Errors
+    /// Guesses of the wrong size, or a dynamics evaluation error.
+    pub fn solve(
+        &mut self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+    ) -> Result<PtrResult, crate::DiscretizationError> {
+        let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        let mc = m + 1;
+        let (u0, s0, vp0, _) = self.layout();
+        let nv = self.n_vars;
+        let set = self.settings.clone();
+        let (mut xb, mut ub, mut sb) = (x.to_vec(), u.to_vec(), s.to_vec());
+        let mut dbar = self.ocp.dynamics.output(nn);
+        self.ocp.dynamics.discretize(
+            &xb,
+            &ub,
+            &sb,
+            &set.discretization,
+            &mut self.dws,
+            &mut dbar,
+        )?;
+        let mut dcand = self.ocp.dynamics.output(nn);
+        let (mut jbar, mut tf, _) = self.merit(&sb, &dbar, set.lam_vc);
+        let mut lam_tr = set.lam_tr;
+        let mut history = Vec::new();
+        let dtau = 1.0 / (nn - 1) as f64;
+        let n_primal = vp0;
+        // P: 2λ_tr on the (x, u, s) diagonal; q and b refilled per iteration.
+        let p_colptr: Vec<usize> = (0..=self.n_vars).map(|c| c.min(n_primal)).collect();
+        let p_rowval: Vec<usize> = (0..n_primal).collect();
+        let mut q = vec![0.0; self.n_vars];
+        let mut pvals = vec![0.0; n_primal];
+        // Trust-region scale per variable: S = max(1, range/2) from its bounds (OpenSCvx's
+        // affine scaling), so the region is measured in comparable units.
+        let scale_of = |lo: f64, hi: f64| {
+            if lo.is_finite() && hi.is_finite() { (0.5 * (hi - lo)).max(1.0) } else { 1.0 }
+        };
+        let inv_s2: Vec<f64> = (0..n_primal)
+            .map(|i| {
+                let sc = if i < u0 {
+                    scale_of(self.ocp.x_min[i % n], self.ocp.x_max[i % n])
+                } else if i < s0 {
+                    scale_of(
+                        self.ocp.u_min[(i - u0) % m.max(1)],
+                        self.ocp.u_max[(i - u0) % m.max(1)],
+                    )
+                } else {
+                    scale_of(self.ocp.s_min, self.ocp.s_max)
+                };
+                1.0 / (sc * sc)
+            })
+            .collect();
+        let mut nz = vec![0.0; self.a_rowval.len()];
+        let mut b = self.b.clone();
+        let cones: Vec<SupportedConeT<f64>> =
+            vec![ZeroConeT(self.n_zero), NonnegativeConeT(self.n_nonneg)];
+        let settings = DefaultSettings::<f64> {
+            verbose: false,
+            presolve_enable: false,
+            ..DefaultSettings::default()
+        };
+        let mut solver: Option<DefaultSolver<f64>> = None;
+        let mut status = PtrStatus::MaxIterations;
+        for it in 1..=set.max_iterations {
+            // Values of this linearization.
+            for (v, src) in nz.iter_mut().zip(&self.sources) {
+                *v = match *src {
+                    Source::Const(c) => c,
+                    Source::A(i) => dbar.a[i],
+                    Source::Bm(i) => dbar.b_minus[i],
+                    Source::Bp(i) => dbar.b_plus[i],
+                };
+            }
+            for k in 0..nn - 1 {
+                for r in 0..n {
+                    let mut c = dbar.x_prop[k * n + r];
+                    for j in 0..n {
+                        c -= dbar.a[k * n * n + r * n + j] * xb[k * n + j];
+                    }
+                    for i in 0..m {
+                        c -= dbar.b_minus[k * n * mc + r * mc + i] * ub[k * m + i];
+                        c -= dbar.b_plus[k * n * mc + r * mc + i] * ub[(k + 1) * m + i];
+                    }
+                    c -= dbar.b_minus[k * n * mc + r * mc + m] * sb[k];
+                    b[k * n + r] = -c;
+                }
+            }
+            q.fill(0.0);
+            for (i, qi) in q.iter_mut().enumerate().take(n_primal) {
+                let zbar = if i < u0 {
+                    xb[i]
+                } else if i < s0 {
+                    ub[i - u0]
+                } else {
+                    sb[i - s0]
+                };
+                *qi = -2.0 * lam_tr * inv_s2[i] * zbar;
+            }
+            for k in 0..nn - 1 {
+                q[s0 + k] += self.ocp.time_weight * dtau;
+            }
+            for qi in q.iter_mut().skip(vp0) {
+                *qi = set.lam_vc;
+            }
+            for (p, w) in pvals.iter_mut().zip(&inv_s2) {
+                *p = 2.0 * lam_tr * w;
+            }
+            // In-place update when the solver exists (same pattern); rebuild if that fails.
+            if let Some(sv) = solver.as_mut() {
+                let updated = sv.update_P(&pvals).is_ok()
+                    && sv.update_q(&q).is_ok()
+                    && sv.update_A(&nz).is_ok()
+                    && sv.update_b(&b).is_ok();
+                if !updated {
+                    solver = None;
+                }
+            }
+            if solver.is_none() {
+                let pm = CscMatrix::new(
+                    self.n_vars,
+                    self.n_vars,
+                    p_colptr.clone(),
+                    p_rowval.clone(),
+                    pvals.clone(),
+                );
+                let am = CscMatrix::new(
+                    b.len(),
+                    self.n_vars,
+                    self.a_colptr.clone(),
+                    self.a_rowval.clone(),
+                    nz.clone(),
+                );
+                solver = DefaultSolver::new(&pm, &q, &am, &b, &cones, settings.clone()).ok();
+            }
+            let Some(sv) = solver.as_mut() else {
+                status = PtrStatus::NumericalFailure;
+                break;
+            };
+            sv.solve();
+            match sv.solution.status {
+                SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+                SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                    status = PtrStatus::SubproblemInfeasible;
+                    break;
+                }
+                _ => {
+                    status = PtrStatus::NumericalFailure;
+                    break;
+                }
+            }
+            let z = &sv.solution.x;
+            let (xc, uc, sc) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
+            let j_vc: f64 = z[vp0..nv].iter().map(|v| v.abs()).sum();
+            let j_tr: f64 = (0..n_primal)
+                .map(|i| {
+                    let zb = if i < u0 {
+                        xb[i]
+                    } else if i < s0 {
+                        ub[i - u0]
+                    } else {
+                        sb[i - s0]
+                    };
+                    (z[i] - zb).powi(2) * inv_s2[i]
+                })
+                .sum();
+            self.ocp.dynamics.discretize(
+                xc,
+                uc,
+                sc,
+                &set.discretization,
+                &mut self.dws,
+                &mut dcand,
+            )?;
+            let (jc, tfc, max_defect) = self.merit(sc, &dcand, set.lam_vc);
+            let predicted = jbar
+                - (self.ocp.time_weight * dtau * sc[..nn - 1].iter().sum::<f64>()
+                    + set.lam_vc * j_vc);
+            let rho = if predicted.abs() > 1e-14 { (jbar - jc) / predicted } else { 1.0 };
+            let accept = rho >= set.eta[0] || predicted.abs() <= 1e-14;
+            history.push(Iteration {
+                iteration: it,
+                accepted: accept,
+                j_tr,
+                j_vc,
+                max_defect,
+                final_time: tfc,
+                rho,
+                lam_tr,
+            });
+            if accept {
+                xb.copy_from_slice(xc);
+                ub.copy_from_slice(uc);
+                sb.copy_from_slice(sc);
+                std::mem::swap(&mut dbar, &mut dcand);
+                (jbar, tf) = (jc, tfc);
+                if j_tr < set.eps_tr && max_defect < set.eps_defect {
+                    status = PtrStatus::Converged;
+                    break;
+                }
+                if rho < set.eta[1] {
+                    lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
+                } else if rho > set.eta[2] {
+                    lam_tr = (lam_tr * 0.5).max(set.lam_tr_min);
+                }
+            } else {
+                if lam_tr >= set.lam_tr_max {
+                    status = PtrStatus::Stalled;
+                    break;
+                }
+                lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
+            }
+        }
+        Ok(PtrResult { status, x: xb, u: ub, s: sb, final_time: tf, history })
+    }
+}
