@@ -48,6 +48,9 @@ pub struct Dynamics {
     /// CSC columns of the Jacobian: for input column j, (row, nonzero position) pairs.
     col_ptr: Vec<usize>,
     rows: Vec<usize>,
+    /// `(state row, first segment, end segment)`: the row's dynamics are active only on
+    /// segments `first..end` (CTCS intervals); elsewhere the row is held constant.
+    gates: Vec<(usize, usize, usize)>,
 }
 
 /// The discretized problem around one trajectory: per segment k = 0..N−2, row-major
@@ -128,7 +131,29 @@ impl Dynamics {
             col_ptr: p.col_ptr().to_vec(),
             rows: p.row_idx().to_vec(),
             f,
+            gates: Vec::new(),
         })
+    }
+
+    /// Restricts state row `row`'s dynamics to segments `first..end` (a CTCS interval; the
+    /// segment index gates the integrand as in OpenSCvx). Outside, the row stays constant.
+    ///
+    /// # Errors
+    /// A row or interval out of range.
+    pub fn gate(
+        mut self,
+        row: usize,
+        first: usize,
+        end: usize,
+    ) -> Result<Dynamics, DiscretizationError> {
+        if row >= self.n_x || first >= end {
+            return Err(DiscretizationError::Size(format!(
+                "gate: row {row} of {} with segments {first}..{end}",
+                self.n_x
+            )));
+        }
+        self.gates.push((row, first, end));
+        Ok(self)
     }
 
     /// State size n.
@@ -184,6 +209,7 @@ impl Dynamics {
         uk: &[f64],
         uk1: &[f64],
         s: f64,
+        seg: usize,
         fws: &mut Workspace,
         input: &mut [f64],
         fval: &mut [f64],
@@ -197,6 +223,17 @@ impl Dynamics {
             input[n + i] = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
         }
         self.f.eval(input, fws, fval, Some(jac))?;
+        // Gated rows (inactive CTCS integrands on this segment): zero value and derivatives.
+        for &(row, first, end) in &self.gates {
+            if seg < first || seg >= end {
+                fval[row] = 0.0;
+                for (v, &r) in jac.iter_mut().zip(&self.rows) {
+                    if r == row {
+                        *v = 0.0;
+                    }
+                }
+            }
+        }
         dv.fill(0.0);
         for r in 0..n {
             dv[r] = s * fval[r];
@@ -281,19 +318,19 @@ impl Dynamics {
                 let b0 = step as f64 / settings.substeps as f64;
                 let bh = (step as f64 + 0.5) / settings.substeps as f64;
                 let b1 = (step as f64 + 1.0) / settings.substeps as f64;
-                self.rhs(v, b0, uk, uk1, sk, fws, input, fval, jac, k0)?;
+                self.rhs(v, b0, uk, uk1, sk, seg, fws, input, fval, jac, k0)?;
                 for i in 0..len {
                     tmp[i] = v[i] + 0.5 * h * k0[i];
                 }
-                self.rhs(tmp, bh, uk, uk1, sk, fws, input, fval, jac, k1)?;
+                self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k1)?;
                 for i in 0..len {
                     tmp[i] = v[i] + 0.5 * h * k1[i];
                 }
-                self.rhs(tmp, bh, uk, uk1, sk, fws, input, fval, jac, k2)?;
+                self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k2)?;
                 for i in 0..len {
                     tmp[i] = v[i] + h * k2[i];
                 }
-                self.rhs(tmp, b1, uk, uk1, sk, fws, input, fval, jac, k3)?;
+                self.rhs(tmp, b1, uk, uk1, sk, seg, fws, input, fval, jac, k3)?;
                 for i in 0..len {
                     v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
                 }

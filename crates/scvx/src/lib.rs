@@ -1,10 +1,14 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod ctcs;
 pub mod discretization;
 pub mod ptr;
 
+pub use ctcs::{CtcsGroup, ctcs_states};
 pub use discretization::{
     Discretization, DiscretizationError, DiscretizationSettings, DiscretizationWorkspace, Dynamics,
 };
-pub use ptr::{Iteration, Ocp, Ptr, PtrResult, PtrSettings, PtrStatus};
+pub use ptr::{
+    Iteration, NodalConstraint, Ocp, Ptr, PtrResult, PtrSettings, PtrStatus, TrustRegionUpdate,
+};

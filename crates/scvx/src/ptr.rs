@@ -20,12 +20,15 @@
 //! iteration refills the values and updates Clarabel in place (presolve off).
 //!
 //! # Acceptance
-//! Merit `J(z) = w_t·t_f(z) + λ_vc·Σ|defect(z)|` on the nonlinear defects. With the
-//! subproblem's linear prediction `L(z*) = w_t·t_f(z*) + λ_vc·Σ|ν*|`,
-//! `ρ = (J(z̄) − J(z*)) / (J(z̄) − L(z*))`. A step with `ρ < η₀` is rejected and λ_tr
-//! doubles (so the next subproblem differs — no identical re-solves); otherwise it is
-//! accepted and λ_tr adapts (×2 below η₁, ×½ above η₂). Converged when the accepted step's
-//! `‖Δz‖² < ε_tr` and the largest nonlinear defect is below `ε_defect`.
+//! By default every step is accepted with a constant trust-region weight (the published
+//! PTR). Optionally ([`TrustRegionUpdate::Adaptive`]) the merit
+//! `J(z) = w_t·t_f(z) + Σ λ_vc,i·|defect_i(z)| + λ_vb·Σ max(0, g)` and the subproblem's
+//! prediction `L(z*)` give `ρ = (J(z̄) − J(z*)) / (J(z̄) − L(z*))`; a step with `ρ < η₀` is
+//! rejected and λ_tr doubles (so the next subproblem differs — no identical re-solves),
+//! otherwise λ_tr adapts (×2 below η₁, ×½ above η₂). Either way, rows whose defect persists
+//! get heavier virtual-control weights. Converged when an accepted step is
+//! stationary (`max(1, λ_tr)²‖Δz‖² < ε_tr`), the largest nonlinear defect is below
+//! `ε_defect` and the largest nodal violation below `ε_vb`.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -61,6 +64,22 @@ pub struct Ocp {
     pub s_max: f64,
     /// Weight of the final time in the cost (0: fixed-time feasibility).
     pub time_weight: f64,
+    /// CTCS increments `(state row, ε, first node, last node)`: `y_{k+1} − y_k ≤ ε` for the
+    /// segments of the interval.
+    pub increments: Vec<(usize, f64, usize, usize)>,
+    /// Nodal constraints, linearised each iteration with virtual buffers.
+    pub nodal: Vec<NodalConstraint>,
+}
+
+/// A (generally nonconvex) constraint `g(x_k, u_k) ≤ 0` at listed nodes.
+#[derive(Debug, Clone)]
+pub struct NodalConstraint {
+    /// Name for diagnostics.
+    pub name: String,
+    /// `g`, compiled against the groups `[states], [controls]` of the dynamics.
+    pub function: armature_symbolic::Function,
+    /// Nodes where it holds.
+    pub nodes: Vec<usize>,
 }
 
 /// PTR settings with documented defaults.
@@ -72,16 +91,26 @@ pub struct PtrSettings {
     pub lam_tr_min: f64,
     /// Bounds of λ_tr.
     pub lam_tr_max: f64,
+    /// Cap of the per-row virtual-control weights, which double on rows whose defect stays
+    /// above `eps_defect` after an accepted step (OpenSCvx's autotuner raises λ_vc the same
+    /// way; CTCS rows need it: their squared-ReLU integrands have zero gradient at
+    /// feasibility). Default 1e6.
+    pub lam_vc_max: f64,
+    /// Virtual-buffer weight λ_vb of nodal constraints. Default 1e2.
+    pub lam_vb: f64,
+    /// Convergence: largest nodal violation. Default 1e-6.
+    pub eps_vb: f64,
     /// Virtual-control weight λ_vc (exact-penalty weight: must exceed the dynamics
     /// multipliers; larger values make the merit dominated by second-order defects and
     /// slow the trust region). Default 1e2.
     pub lam_vc: f64,
-    /// Convergence: squared scaled step norm (OpenSCvx's ε_tr). Default 1e-4.
+    /// Convergence: `max(1, λ_tr)²·‖Δz‖²` of an accepted step (a stationarity measure: the
+    /// step norm alone would declare convergence whenever λ_tr is large). Default 1e-4.
     pub eps_tr: f64,
     /// Convergence: largest nonlinear defect. Default 1e-6.
     pub eps_defect: f64,
-    /// Acceptance thresholds η₀ < η₁ < η₂. Default 0, 0.1, 0.7.
-    pub eta: [f64; 3],
+    /// How the trust-region weight evolves. Default [`TrustRegionUpdate::Constant`].
+    pub trust_region: TrustRegionUpdate,
     /// Iteration cap. Default 100.
     pub max_iterations: usize,
     /// Integrator settings.
@@ -95,13 +124,33 @@ impl Default for PtrSettings {
             lam_tr_min: 1e-4,
             lam_tr_max: 1e6,
             lam_vc: 1e2,
+            lam_vc_max: 1e6,
+            lam_vb: 1e2,
+            eps_vb: 1e-6,
             eps_tr: 1e-4,
             eps_defect: 1e-6,
-            eta: [0.0, 0.1, 0.7],
+            trust_region: TrustRegionUpdate::Constant,
             max_iterations: 100,
             discretization: DiscretizationSettings::default(),
         }
     }
+}
+
+/// Trust-region policy.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum TrustRegionUpdate {
+    /// Penalized trust region as published (Reynolds, Szmuk et al.; OpenSCvx's
+    /// `ConstantProximalWeight`): every step is accepted and λ_tr stays fixed; the
+    /// virtual-control penalty drives feasibility.
+    Constant,
+    /// Accept or reject by the actual/predicted merit ratio ρ with thresholds η₀ < η₁ < η₂:
+    /// reject below η₀ (λ_tr doubles, so the next subproblem differs), double λ_tr below η₁,
+    /// halve it above η₂. Slower than `Constant` on the reference problems so far: second-
+    /// order defects weighted by λ_vc keep ρ low, so λ_tr stays high.
+    Adaptive {
+        /// The thresholds.
+        eta: [f64; 3],
+    },
 }
 
 /// How a solve ended.
@@ -132,6 +181,8 @@ pub struct Iteration {
     pub j_vc: f64,
     /// Largest nonlinear defect of the candidate.
     pub max_defect: f64,
+    /// Largest nodal-constraint violation of the candidate.
+    pub max_violation: f64,
     /// Final time of the candidate.
     pub final_time: f64,
     /// Actual / predicted merit reduction.
@@ -163,6 +214,26 @@ enum Source {
     A(usize),
     Bm(usize),
     Bp(usize),
+    /// A nodal-constraint Jacobian nonzero (index into the per-iteration buffer).
+    G(usize),
+}
+
+/// Scratch for evaluating the nodal constraints (allocated once per solve).
+#[derive(Debug)]
+struct NodalEval {
+    ws: Vec<armature_symbolic::Workspace>,
+    input: Vec<f64>,
+    values: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+/// Where one nodal constraint row sits: its evaluation block and its subproblem row.
+#[derive(Debug, Clone, Copy)]
+struct NodalRow {
+    constraint: usize,
+    node: usize,
+    output: usize,
+    row: usize,
 }
 
 /// The PTR solver for one [`Ocp`], with its subproblem pattern built once.
@@ -179,6 +250,12 @@ pub struct Ptr {
     n_zero: usize,
     n_nonneg: usize,
     dws: DiscretizationWorkspace,
+    /// Start of the virtual-buffer variables.
+    vb0: usize,
+    nodal_rows: Vec<NodalRow>,
+    /// Per (constraint, node) evaluation: offset of its values and Jacobian nonzeros.
+    g_offsets: Vec<(usize, usize)>,
+    g_len: (usize, usize),
 }
 
 impl Ptr {
@@ -196,7 +273,20 @@ impl Ptr {
         let s0 = u0 + nn * m;
         let vp0 = s0 + nn;
         let vm0 = vp0 + (nn - 1) * n;
-        let n_vars = vm0 + (nn - 1) * n;
+        let vb0 = vm0 + (nn - 1) * n;
+        let n_buffers: usize =
+            ocp.nodal.iter().map(|c| c.nodes.len() * c.function.n_outputs()).sum();
+        let n_vars = vb0 + n_buffers;
+        // Evaluation buffers of the nodal constraints, per (constraint, node).
+        let mut g_offsets = Vec::new();
+        let (mut gv, mut gj) = (0, 0);
+        for c in &ocp.nodal {
+            for _ in &c.nodes {
+                g_offsets.push((gv, gj));
+                gv += c.function.n_outputs();
+                gj += c.function.jacobian_pattern().nnz();
+            }
+        }
         let mut trip: Vec<(usize, usize, Source)> = Vec::new();
         let mut b = Vec::new();
         let mut row = 0;
@@ -262,6 +352,41 @@ impl Ptr {
             ineq(s0 + k, 1.0, ocp.s_max, &mut trip, &mut b, &mut row);
             ineq(s0 + k, -1.0, ocp.s_min, &mut trip, &mut b, &mut row);
         }
+        for &(r, eps, first, last) in &ocp.increments {
+            for k in first..last.min(nn - 1) {
+                trip.push((row, x0 + (k + 1) * n + r, Source::Const(1.0)));
+                trip.push((row, x0 + k * n + r, Source::Const(-1.0)));
+                b.push(eps);
+                row += 1;
+            }
+        }
+        // Nodal rows ∇g·z − ν_b ≤ ∇g·z̄ − g(z̄) (values refilled per iteration).
+        let mut nodal_rows = Vec::new();
+        let mut eval = 0;
+        let mut buffer = vb0;
+        for (ci, c) in ocp.nodal.iter().enumerate() {
+            let p = c.function.jacobian_pattern();
+            for &k in &c.nodes {
+                let (_, goff) = g_offsets[eval];
+                for out in 0..c.function.n_outputs() {
+                    for col in 0..p.ncols() {
+                        for nzi in p.col_ptr()[col]..p.col_ptr()[col + 1] {
+                            if p.row_idx()[nzi] == out {
+                                let var =
+                                    if col < n { x0 + k * n + col } else { u0 + k * m + (col - n) };
+                                trip.push((row, var, Source::G(goff + nzi)));
+                            }
+                        }
+                    }
+                    trip.push((row, buffer, Source::Const(-1.0)));
+                    nodal_rows.push(NodalRow { constraint: ci, node: k, output: out, row });
+                    b.push(0.0);
+                    row += 1;
+                    buffer += 1;
+                }
+                eval += 1;
+            }
+        }
         for c in vp0..n_vars {
             ineq(c, -1.0, 0.0, &mut trip, &mut b, &mut row);
         }
@@ -277,16 +402,69 @@ impl Ptr {
         let a_rowval = trip.iter().map(|t| t.0).collect();
         let sources = trip.iter().map(|t| t.2).collect();
         let dws = ocp.dynamics.workspace();
-        Ptr { ocp, settings, n_vars, a_colptr, a_rowval, sources, b, n_zero, n_nonneg, dws }
+        Ptr {
+            ocp,
+            settings,
+            n_vars,
+            a_colptr,
+            a_rowval,
+            sources,
+            b,
+            n_zero,
+            n_nonneg,
+            dws,
+            vb0,
+            nodal_rows,
+            g_offsets,
+            g_len: (gv, gj),
+        }
     }
 
-    fn merit(&self, s: &[f64], d: &Discretization, lam_vc: f64) -> (f64, f64, f64) {
+    /// Evaluates every nodal constraint at `(x, u)` into the buffers; returns
+    /// `(Σ max(0, g), max(0, max g))`.
+    fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval) -> (f64, f64) {
+        let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
+        let (mut sum, mut max) = (0.0, 0.0f64);
+        let mut e = 0;
+        for (ci, c) in self.ocp.nodal.iter().enumerate() {
+            let (nout, nnz) = (c.function.n_outputs(), c.function.jacobian_pattern().nnz());
+            for &k in &c.nodes {
+                ev.input[..n].copy_from_slice(&x[k * n..(k + 1) * n]);
+                ev.input[n..n + m].copy_from_slice(&u[k * m..(k + 1) * m]);
+                let (vo, jo) = self.g_offsets[e];
+                let (vals, jac) = (&mut ev.values[vo..vo + nout], &mut ev.jac[jo..jo + nnz]);
+                // Compiled against the dynamics' groups: evaluation cannot fail on sizes.
+                if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, Some(jac)).is_err() {
+                    vals.fill(f64::INFINITY);
+                }
+                for v in vals.iter() {
+                    sum += v.max(0.0);
+                    max = max.max(*v);
+                }
+                e += 1;
+            }
+        }
+        (sum, max)
+    }
+
+    /// Merit `(J, t_f, max defect, max nodal violation)` of a trajectory.
+    fn merit(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+        d: &Discretization,
+        ev: &mut NodalEval,
+        lam_vc: &[f64],
+    ) -> (f64, f64, f64, f64) {
         let nn = self.ocp.nodes;
         let dtau = 1.0 / (nn - 1) as f64;
         let tf = dtau * s[..nn - 1].iter().sum::<f64>();
-        let l1: f64 = d.defect.iter().map(|x| x.abs()).sum();
+        let n = self.ocp.dynamics.n_x();
+        let l1: f64 = d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum();
         let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        (self.ocp.time_weight * tf + lam_vc * l1, tf, max)
+        let (viol, max_viol) = self.eval_nodal(x, u, ev);
+        (self.ocp.time_weight * tf + l1 + self.settings.lam_vb * viol, tf, max, max_viol)
     }
 
     /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N).
@@ -315,7 +493,14 @@ impl Ptr {
             &mut dbar,
         )?;
         let mut dcand = self.ocp.dynamics.output(nn);
-        let (mut jbar, mut tf, _) = self.merit(&sb, &dbar, set.lam_vc);
+        let mut ev = NodalEval {
+            ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
+            input: vec![0.0; n + m],
+            values: vec![0.0; self.g_len.0],
+            jac: vec![0.0; self.g_len.1],
+        };
+        let mut lam_vc = vec![set.lam_vc; n];
+        let (mut jbar, mut tf, _, _) = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc);
         let mut lam_tr = set.lam_tr;
         let mut history = Vec::new();
         let dtau = 1.0 / (nn - 1) as f64;
@@ -357,6 +542,30 @@ impl Ptr {
         let mut solver: Option<DefaultSolver<f64>> = None;
         let mut status = PtrStatus::MaxIterations;
         for it in 1..=set.max_iterations {
+            // Nodal constraints linearised at the reference: rows' right-hand sides.
+            self.eval_nodal(&xb, &ub, &mut ev);
+            for nr in &self.nodal_rows {
+                let c = &self.ocp.nodal[nr.constraint];
+                let e =
+                    self.ocp.nodal[..nr.constraint].iter().map(|c| c.nodes.len()).sum::<usize>()
+                        + c.nodes.iter().position(|&k| k == nr.node).unwrap_or(0);
+                let (vo, jo) = self.g_offsets[e];
+                let p = c.function.jacobian_pattern();
+                let mut rhs = -ev.values[vo + nr.output];
+                for col in 0..p.ncols() {
+                    for nzi in p.col_ptr()[col]..p.col_ptr()[col + 1] {
+                        if p.row_idx()[nzi] == nr.output {
+                            let zbar = if col < n {
+                                xb[nr.node * n + col]
+                            } else {
+                                ub[nr.node * m + col - n]
+                            };
+                            rhs += ev.jac[jo + nzi] * zbar;
+                        }
+                    }
+                }
+                b[nr.row] = rhs;
+            }
             // Values of this linearization.
             for (v, src) in nz.iter_mut().zip(&self.sources) {
                 *v = match *src {
@@ -364,6 +573,7 @@ impl Ptr {
                     Source::A(i) => dbar.a[i],
                     Source::Bm(i) => dbar.b_minus[i],
                     Source::Bp(i) => dbar.b_plus[i],
+                    Source::G(i) => ev.jac[i],
                 };
             }
             for k in 0..nn - 1 {
@@ -394,8 +604,8 @@ impl Ptr {
             for k in 0..nn - 1 {
                 q[s0 + k] += self.ocp.time_weight * dtau;
             }
-            for qi in q.iter_mut().skip(vp0) {
-                *qi = set.lam_vc;
+            for (i, qi) in q.iter_mut().enumerate().skip(vp0) {
+                *qi = if i < self.vb0 { lam_vc[(i - vp0) % n] } else { set.lam_vb };
             }
             for (p, w) in pvals.iter_mut().zip(&inv_s2) {
                 *p = 2.0 * lam_tr * w;
@@ -445,7 +655,10 @@ impl Ptr {
             }
             let z = &sv.solution.x;
             let (xc, uc, sc) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
-            let j_vc: f64 = z[vp0..nv].iter().map(|v| v.abs()).sum();
+            let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
+            let vc_cost: f64 =
+                z[vp0..self.vb0].iter().enumerate().map(|(i, v)| lam_vc[i % n] * v.abs()).sum();
+            let j_vb: f64 = z[self.vb0..nv].iter().map(|v| v.max(0.0)).sum();
             let j_tr: f64 = (0..n_primal)
                 .map(|i| {
                     let zb = if i < u0 {
@@ -466,18 +679,24 @@ impl Ptr {
                 &mut self.dws,
                 &mut dcand,
             )?;
-            let (jc, tfc, max_defect) = self.merit(sc, &dcand, set.lam_vc);
+            let (jc, tfc, max_defect, max_violation) =
+                self.merit(xc, uc, sc, &dcand, &mut ev, &lam_vc);
             let predicted = jbar
                 - (self.ocp.time_weight * dtau * sc[..nn - 1].iter().sum::<f64>()
-                    + set.lam_vc * j_vc);
+                    + vc_cost
+                    + set.lam_vb * j_vb);
             let rho = if predicted.abs() > 1e-14 { (jbar - jc) / predicted } else { 1.0 };
-            let accept = rho >= set.eta[0] || predicted.abs() <= 1e-14;
+            let accept = match set.trust_region {
+                TrustRegionUpdate::Constant => true,
+                TrustRegionUpdate::Adaptive { eta } => rho >= eta[0] || predicted.abs() <= 1e-14,
+            };
             history.push(Iteration {
                 iteration: it,
                 accepted: accept,
                 j_tr,
                 j_vc,
                 max_defect,
+                max_violation,
                 final_time: tfc,
                 rho,
                 lam_tr,
@@ -488,14 +707,33 @@ impl Ptr {
                 sb.copy_from_slice(sc);
                 std::mem::swap(&mut dbar, &mut dcand);
                 (jbar, tf) = (jc, tfc);
-                if j_tr < set.eps_tr && max_defect < set.eps_defect {
+                // Stationarity, not just a short step: the subproblem's optimality gives
+                // ‖∇L‖ ≈ 2λ_tr‖Δz‖, so a step kept short by a heavy trust region does not count.
+                let stationary = j_tr * lam_tr.max(1.0).powi(2) < set.eps_tr;
+                if stationary && max_defect < set.eps_defect && max_violation < set.eps_vb {
                     status = PtrStatus::Converged;
                     break;
                 }
-                if rho < set.eta[1] {
-                    lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
-                } else if rho > set.eta[2] {
-                    lam_tr = (lam_tr * 0.5).max(set.lam_tr_min);
+                // Rows whose defect persists get a heavier virtual-control price; the reference
+                // merit is re-evaluated under the new weights so ρ stays consistent.
+                let mut changed = false;
+                for r in 0..n {
+                    let row_max =
+                        (0..nn - 1).map(|k| dbar.defect[k * n + r].abs()).fold(0.0, f64::max);
+                    if row_max > set.eps_defect && lam_vc[r] < set.lam_vc_max {
+                        lam_vc[r] = (lam_vc[r] * 2.0).min(set.lam_vc_max);
+                        changed = true;
+                    }
+                }
+                if changed {
+                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc).0;
+                }
+                if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
+                    if rho < eta[1] {
+                        lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
+                    } else if rho > eta[2] {
+                        lam_tr = (lam_tr * 0.5).max(set.lam_tr_min);
+                    }
                 }
             } else {
                 if lam_tr >= set.lam_tr_max {

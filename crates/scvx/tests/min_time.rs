@@ -21,6 +21,8 @@ fn problem(nodes: usize) -> Ocp {
         s_min: 0.1,
         s_max: 10.0,
         time_weight: 1.0,
+        increments: vec![],
+        nodal: vec![],
     }
 }
 
@@ -54,4 +56,34 @@ fn minimum_time_double_integrator_is_bang_bang() {
             assert!(w[1].lam_tr > w[0].lam_tr);
         }
     }
+}
+
+/// The adaptive (ρ-based) trust region: rejected steps always change λ_tr (no identical
+/// re-solves, unlike OpenSCvx 0.5.2's autotuner) and the final time improves on the guess.
+/// It is slower than the default constant weight on this problem (documented).
+#[test]
+fn adaptive_trust_region_never_resolves_an_identical_subproblem() {
+    use armature_scvx::TrustRegionUpdate;
+    let nodes = 41;
+    let settings = PtrSettings {
+        trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.7] },
+        max_iterations: 200,
+        ..PtrSettings::default()
+    };
+    let mut ptr = Ptr::new(problem(nodes), settings);
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    eprintln!(
+        "adaptive: {:?} after {} iterations, T = {}",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    assert!(r.history.iter().any(|h| !h.accepted), "the test should exercise rejections");
+    for w in r.history.windows(2) {
+        if !w[0].accepted {
+            assert!(w[1].lam_tr > w[0].lam_tr || r.status == PtrStatus::Stalled);
+        }
+    }
+    assert!(r.final_time < 2.5, "T = {} (guess 3 s, optimum 2 s)", r.final_time);
 }

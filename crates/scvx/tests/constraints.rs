@@ -1,0 +1,125 @@
+//! CTCS and nodal constraints in the PTR loop, on problems with known answers.
+
+use armature_scvx::{
+    CtcsGroup, Dynamics, NodalConstraint, Ocp, Ptr, PtrSettings, PtrStatus, ctcs_states,
+};
+use armature_symbolic::{Expr, Function};
+
+/// Minimum time 0 → 1 m at rest with |a| ≤ 1 and the path constraint |v| ≤ 0.7 enforced in
+/// continuous time: accelerate 0.7 s, cruise 0.51/0.7 s, brake 0.7 s: T* = 1.4 + 0.51/0.7.
+#[test]
+fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
+    let nodes = 41;
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let a = Expr::variable("a", 1);
+    let groups = [CtcsGroup { constraints: vec![&v - 0.7, -&v - 0.7], first: 0, last: nodes - 1 }];
+    let aug = ctcs_states(&groups);
+    let (y, ydot) = aug[0].clone();
+    let dynamics = Dynamics::new(&[p, v.clone(), y], &[a.clone()], &[v, a, ydot], &[true])
+        .unwrap()
+        .gate(2, 0, nodes - 1)
+        .unwrap();
+    let ocp = Ocp {
+        dynamics,
+        nodes,
+        x_min: vec![-10.0, -10.0, 0.0],
+        x_max: vec![10.0, 10.0, 10.0],
+        u_min: vec![-1.0],
+        u_max: vec![1.0],
+        x_initial: vec![Some(0.0), Some(0.0), Some(0.0)],
+        x_final: vec![Some(1.0), Some(0.0), None],
+        s_min: 0.1,
+        s_max: 10.0,
+        time_weight: 1.0,
+        increments: vec![(2, 1e-6, 0, nodes - 1)],
+        nodal: vec![],
+    };
+    let mut ptr =
+        Ptr::new(ocp.clone(), PtrSettings { max_iterations: 150, ..PtrSettings::default() });
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.3, 0.0]).collect();
+    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    let expected = 1.4 + 0.51 / 0.7;
+    eprintln!(
+        "status {:?}, iterations {}, T = {} (analytic {expected})",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert!((r.final_time - expected).abs() < 0.01 * expected, "T = {}", r.final_time);
+    // Between nodes too: propagate each segment finely and check the speed.
+    let fine = ocp.dynamics.clone();
+    let mut ws = fine.workspace();
+    let sub = 40;
+    for k in 0..nodes - 1 {
+        for j in 1..=sub {
+            // Integrate segment k up to fraction j/sub with the FOH control, via a 2-node
+            // discretization of the partial segment.
+            let t = j as f64 / sub as f64;
+            let uk = r.u[k];
+            let ue = uk + t * (r.u[k + 1] - uk);
+            let xs = [r.x[3 * k], r.x[3 * k + 1], r.x[3 * k + 2], 0.0, 0.0, 0.0];
+            let mut out = fine.output(2);
+            let settings = armature_scvx::DiscretizationSettings { substeps: 4 };
+            fine.discretize(
+                &xs,
+                &[uk, ue],
+                &[r.s[k] * t / (nodes - 1) as f64, 0.0],
+                &settings,
+                &mut ws,
+                &mut out,
+            )
+            .unwrap();
+            // CTCS bounds the violation integral by ε = 1e-6 per segment of duration Δt: a
+            // triangular violation peak of height δ has integral δ²Δt/3, so δ ≤ √(3ε/Δt).
+            let dt = r.s[k] / (nodes - 1) as f64;
+            let bound = (3.0 * 1e-6 / dt).sqrt();
+            assert!(
+                out.x_prop[1].abs() < 0.7 + bound,
+                "speed {} inside segment {k} (bound {bound})",
+                out.x_prop[1]
+            );
+        }
+    }
+}
+
+/// A nodal constraint p ≤ 0.3 at the middle node holds at convergence, and costs time.
+#[test]
+fn nodal_constraint_holds_at_convergence() {
+    let nodes = 31;
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let a = Expr::variable("a", 1);
+    let dynamics =
+        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
+            .unwrap();
+    let g = Function::compile(
+        &[(&p - 0.3) * (1.0 + v.square() * 0.0)],
+        &[&[p.clone(), v.clone()], &[a.clone()]],
+    )
+    .unwrap();
+    let ocp = Ocp {
+        dynamics,
+        nodes,
+        x_min: vec![-10.0, -10.0],
+        x_max: vec![10.0, 10.0],
+        u_min: vec![-1.0],
+        u_max: vec![1.0],
+        x_initial: vec![Some(0.0), Some(0.0)],
+        x_final: vec![Some(1.0), Some(0.0)],
+        s_min: 0.1,
+        s_max: 10.0,
+        time_weight: 1.0,
+        increments: vec![],
+        nodal: vec![NodalConstraint { name: "slow start".into(), function: g, nodes: vec![15] }],
+    };
+    let mut ptr = Ptr::new(ocp, PtrSettings::default());
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    eprintln!("status {:?}, iterations {}, T = {}", r.status, r.history.len(), r.final_time);
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert!(r.x[15 * 2] <= 0.3 + 1e-6, "p at node 15 = {}", r.x[15 * 2]);
+    assert!(r.final_time > 2.0, "the constraint costs time: {}", r.final_time);
+    assert!(r.history.last().unwrap().max_violation < 1e-6);
+}
