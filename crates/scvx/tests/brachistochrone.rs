@@ -1,0 +1,79 @@
+//! Analytic reference: the brachistochrone. A bead released at rest at the origin reaches
+//! (x_f, y_f) (y downward) fastest along a cycloid x = R(φ − sin φ), y = R(1 − cos φ), in
+//! T = φ_f·√(R/g), with φ_f solving (φ − sin φ)/(1 − cos φ) = x_f/y_f.
+
+use armature_scvx::{Dynamics, Ocp, Ptr, PtrSettings, PtrStatus};
+use armature_symbolic::Expr;
+
+const G: f64 = 9.81;
+
+fn analytic(xf: f64, yf: f64) -> f64 {
+    let f = |p: f64| (p - p.sin()) / (1.0 - p.cos()) - xf / yf;
+    let (mut lo, mut hi) = (1e-6, 2.0 * std::f64::consts::PI - 1e-6);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let phi = 0.5 * (lo + hi);
+    let r = yf / (1.0 - phi.cos());
+    phi * (r / G).sqrt()
+}
+
+#[test]
+fn brachistochrone_matches_the_cycloid() {
+    let (xf, yf) = (1.0, 0.6);
+    let nodes = 31;
+    let pos = Expr::variable("pos", 2);
+    let v = Expr::variable("v", 1);
+    let th = Expr::variable("theta", 1);
+    // θ is the direction of motion from the downward vertical.
+    let rhs = Expr::concat(&[&v * th.sin(), &v * th.cos()]);
+    let vdot = th.cos() * G;
+    let dynamics = Dynamics::new(&[pos, v], &[th], &[rhs, vdot], &[true]).unwrap();
+    let ocp = Ocp {
+        dynamics,
+        nodes,
+        x_min: vec![-1.0, -1.0, 0.0],
+        x_max: vec![2.0, 2.0, 10.0],
+        u_min: vec![0.0],
+        u_max: vec![std::f64::consts::PI],
+        x_initial: vec![Some(0.0), Some(0.0), Some(0.0)],
+        x_final: vec![Some(xf), Some(yf), None],
+        s_min: 0.05,
+        s_max: 5.0,
+        time_weight: 1.0,
+        increments: vec![],
+        nodal: vec![],
+    };
+    let mut ptr = Ptr::new(ocp, PtrSettings { max_iterations: 200, ..PtrSettings::default() });
+    // Guess: straight line at 45°, speed growing, 1 s.
+    let x: Vec<f64> = (0..nodes)
+        .flat_map(|k| {
+            let t = k as f64 / (nodes - 1) as f64;
+            [xf * t, yf * t, (2.0 * G * yf * t).sqrt()]
+        })
+        .collect();
+    let r = ptr.solve(&x, &vec![1.0; nodes], &vec![1.0; nodes]).unwrap();
+    let expected = analytic(xf, yf);
+    eprintln!(
+        "status {:?}, iterations {}, T = {} (cycloid {expected})",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert!(
+        (r.final_time - expected).abs() < 0.01 * expected,
+        "T = {} vs {expected}",
+        r.final_time
+    );
+    // Energy: v = √(2 g y) along the way (no friction), a check of the dynamics integration.
+    for k in 0..nodes {
+        let (y, v) = (r.x[k * 3 + 1], r.x[k * 3 + 2]);
+        assert!((v - (2.0 * G * y.max(0.0)).sqrt()).abs() < 1e-3, "node {k}: v = {v}, y = {y}");
+    }
+}
