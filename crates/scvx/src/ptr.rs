@@ -96,7 +96,8 @@ pub struct PtrSettings {
     /// way; CTCS rows need it: their squared-ReLU integrands have zero gradient at
     /// feasibility). Default 1e6.
     pub lam_vc_max: f64,
-    /// Virtual-buffer weight λ_vb of nodal constraints. Default 1e2.
+    /// Initial virtual-buffer weight λ_vb of nodal constraints (per row; doubles while the
+    /// row's violation persists, up to `lam_vc_max`). Default 1e2.
     pub lam_vb: f64,
     /// Convergence: largest nodal violation. Default 1e-6.
     pub eps_vb: f64,
@@ -422,7 +423,7 @@ impl Ptr {
 
     /// Evaluates every nodal constraint at `(x, u)` into the buffers; returns
     /// `(Σ max(0, g), max(0, max g))`.
-    fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval) -> (f64, f64) {
+    fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval, weights: &[f64]) -> (f64, f64) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
         let (mut sum, mut max) = (0.0, 0.0f64);
         let mut e = 0;
@@ -437,8 +438,8 @@ impl Ptr {
                 if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, Some(jac)).is_err() {
                     vals.fill(f64::INFINITY);
                 }
-                for v in vals.iter() {
-                    sum += v.max(0.0);
+                for (o, v) in vals.iter().enumerate() {
+                    sum += weights[vo + o] * v.max(0.0);
                     max = max.max(*v);
                 }
                 e += 1;
@@ -456,6 +457,7 @@ impl Ptr {
         d: &Discretization,
         ev: &mut NodalEval,
         lam_vc: &[f64],
+        lam_vb: &[f64],
     ) -> (f64, f64, f64, f64) {
         let nn = self.ocp.nodes;
         let dtau = 1.0 / (nn - 1) as f64;
@@ -463,8 +465,8 @@ impl Ptr {
         let n = self.ocp.dynamics.n_x();
         let l1: f64 = d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum();
         let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let (viol, max_viol) = self.eval_nodal(x, u, ev);
-        (self.ocp.time_weight * tf + l1 + self.settings.lam_vb * viol, tf, max, max_viol)
+        let (viol, max_viol) = self.eval_nodal(x, u, ev, lam_vb);
+        (self.ocp.time_weight * tf + l1 + viol, tf, max, max_viol)
     }
 
     /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N).
@@ -500,7 +502,8 @@ impl Ptr {
             jac: vec![0.0; self.g_len.1],
         };
         let mut lam_vc = vec![set.lam_vc; n];
-        let (mut jbar, mut tf, _, _) = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc);
+        let mut lam_vb = vec![set.lam_vb; self.g_len.0];
+        let (mut jbar, mut tf, _, _) = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc, &lam_vb);
         let mut lam_tr = set.lam_tr;
         let mut history = Vec::new();
         let dtau = 1.0 / (nn - 1) as f64;
@@ -543,7 +546,7 @@ impl Ptr {
         let mut status = PtrStatus::MaxIterations;
         for it in 1..=set.max_iterations {
             // Nodal constraints linearised at the reference: rows' right-hand sides.
-            self.eval_nodal(&xb, &ub, &mut ev);
+            self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
             for nr in &self.nodal_rows {
                 let c = &self.ocp.nodal[nr.constraint];
                 let e =
@@ -605,7 +608,7 @@ impl Ptr {
                 q[s0 + k] += self.ocp.time_weight * dtau;
             }
             for (i, qi) in q.iter_mut().enumerate().skip(vp0) {
-                *qi = if i < self.vb0 { lam_vc[(i - vp0) % n] } else { set.lam_vb };
+                *qi = if i < self.vb0 { lam_vc[(i - vp0) % n] } else { lam_vb[i - self.vb0] };
             }
             for (p, w) in pvals.iter_mut().zip(&inv_s2) {
                 *p = 2.0 * lam_tr * w;
@@ -658,7 +661,8 @@ impl Ptr {
             let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
             let vc_cost: f64 =
                 z[vp0..self.vb0].iter().enumerate().map(|(i, v)| lam_vc[i % n] * v.abs()).sum();
-            let j_vb: f64 = z[self.vb0..nv].iter().map(|v| v.max(0.0)).sum();
+            let vb_cost: f64 =
+                z[self.vb0..nv].iter().zip(&lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
             let j_tr: f64 = (0..n_primal)
                 .map(|i| {
                     let zb = if i < u0 {
@@ -680,11 +684,11 @@ impl Ptr {
                 &mut dcand,
             )?;
             let (jc, tfc, max_defect, max_violation) =
-                self.merit(xc, uc, sc, &dcand, &mut ev, &lam_vc);
+                self.merit(xc, uc, sc, &dcand, &mut ev, &lam_vc, &lam_vb);
             let predicted = jbar
                 - (self.ocp.time_weight * dtau * sc[..nn - 1].iter().sum::<f64>()
                     + vc_cost
-                    + set.lam_vb * j_vb);
+                    + vb_cost);
             let rho = if predicted.abs() > 1e-14 { (jbar - jc) / predicted } else { 1.0 };
             let accept = match set.trust_region {
                 TrustRegionUpdate::Constant => true,
@@ -725,8 +729,16 @@ impl Ptr {
                         changed = true;
                     }
                 }
+                // Likewise for nodal constraints whose violation persists (the buffer values of
+                // the new reference are in `ev` from its merit evaluation).
+                for (w, v) in lam_vb.iter_mut().zip(&ev.values) {
+                    if *v > set.eps_vb && *w < set.lam_vc_max {
+                        *w = (*w * 2.0).min(set.lam_vc_max);
+                        changed = true;
+                    }
+                }
                 if changed {
-                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc).0;
+                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc, &lam_vb).0;
                 }
                 if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
                     if rho < eta[1] {
