@@ -456,8 +456,7 @@ impl Ptr {
         s: &[f64],
         d: &Discretization,
         ev: &mut NodalEval,
-        lam_vc: &[f64],
-        lam_vb: &[f64],
+        (lam_vc, lam_vb): (&[f64], &[f64]),
     ) -> (f64, f64, f64, f64) {
         let nn = self.ocp.nodes;
         let dtau = 1.0 / (nn - 1) as f64;
@@ -503,7 +502,8 @@ impl Ptr {
         };
         let mut lam_vc = vec![set.lam_vc; n];
         let mut lam_vb = vec![set.lam_vb; self.g_len.0];
-        let (mut jbar, mut tf, _, _) = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc, &lam_vb);
+        let (mut jbar, mut tf, _, _) =
+            self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb));
         let mut lam_tr = set.lam_tr;
         let mut history = Vec::new();
         let dtau = 1.0 / (nn - 1) as f64;
@@ -684,7 +684,7 @@ impl Ptr {
                 &mut dcand,
             )?;
             let (jc, tfc, max_defect, max_violation) =
-                self.merit(xc, uc, sc, &dcand, &mut ev, &lam_vc, &lam_vb);
+                self.merit(xc, uc, sc, &dcand, &mut ev, (&lam_vc, &lam_vb));
             let predicted = jbar
                 - (self.ocp.time_weight * dtau * sc[..nn - 1].iter().sum::<f64>()
                     + vc_cost
@@ -738,7 +738,7 @@ impl Ptr {
                     }
                 }
                 if changed {
-                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, &lam_vc, &lam_vb).0;
+                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb)).0;
                 }
                 if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
                     if rho < eta[1] {
