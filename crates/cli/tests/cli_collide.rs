@@ -1,18 +1,9 @@
 //! `armature collide` end to end.
 
-use std::process::Command;
+mod common;
 
+use common::{armature, temp_file};
 use serde_json::Value;
-
-fn armature(args: &[&str]) -> (i32, String, String) {
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_armature")).args(args).output().expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
 
 #[test]
 fn collide_prints_pairs_and_minimum() {
@@ -32,18 +23,22 @@ fn collide_prints_pairs_and_minimum() {
     let min = v["min_distance"].as_f64().unwrap();
     assert!(pairs.iter().all(|p| p["distance"].as_f64().unwrap() >= min));
     // A scene file with a table below the base: the base capsule touches it.
-    let dir = std::env::temp_dir().join(format!("armature-collide-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let scene = dir.join("table.toml");
-    std::fs::write(&scene, "self_collision = false\n[[links]]\nstart = \"base\"\nend = \"shoulder\"\nradius = 0.06\n[[obstacles]]\nname = \"table\"\nhalfspace = { normal = [0.0, 0.0, 1.0], offset = 0.0 }\n").unwrap();
+    let scene = temp_file(
+        "collide",
+        "table.toml",
+        "self_collision = false\n[[links]]\nstart = \"base\"\nend = \"shoulder\"\nradius = 0.06\n[[obstacles]]\nname = \"table\"\nhalfspace = { normal = [0.0, 0.0, 1.0], offset = 0.0 }\n",
+    );
     let (code, out, err) =
         armature(&["collide", "--q", "0,0,0,0,0,0,0", "--scene", scene.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["pairs"].as_array().unwrap().len(), 1);
     assert!((v["min_distance"].as_f64().unwrap() + 0.06).abs() < 1e-15);
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, "[[links]]\nstart = \"base\"\nend = \"hand\"\nradius = 0.1\n").unwrap();
+    let bad = temp_file(
+        "collide",
+        "bad.toml",
+        "[[links]]\nstart = \"base\"\nend = \"hand\"\nradius = 0.1\n",
+    );
     let (code, out, err) =
         armature(&["collide", "--q", "0,0,0,0,0,0,0", "--scene", bad.to_str().unwrap()]);
     assert_eq!(code, 2);

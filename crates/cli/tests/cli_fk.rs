@@ -1,26 +1,9 @@
 //! `armature fk` end to end: the real binary, its JSON, its errors and exit codes.
 
-use std::process::Command;
+mod common;
 
+use common::{armature, temp_file};
 use serde_json::Value;
-
-fn armature(args: &[&str]) -> (i32, String, String) {
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_armature")).args(args).output().expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("armature-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 #[test]
 fn fk_prints_stable_json() {
@@ -54,6 +37,7 @@ fn fk_prints_stable_json() {
 #[test]
 fn fk_reads_toml_and_urdf_robots() {
     let toml = temp_file(
+        "fk",
         "two.toml",
         "name = \"two\"\nhome = { position = [0.5, 0.0, 0.0] }\n\n[[joints]]\nname = \"j1\"\nkind = \"revolute\"\nscrew = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]\n\n[[joints]]\nname = \"j2\"\nkind = \"revolute\"\nscrew = [0.0, -0.25, 0.0, 0.0, 0.0, 1.0]\n",
     );
@@ -64,6 +48,7 @@ fn fk_reads_toml_and_urdf_robots() {
     let p = v["ee"]["position"].as_array().unwrap();
     assert!(p[0].as_f64().unwrap().abs() < 1e-15 && (p[1].as_f64().unwrap() - 0.5).abs() < 1e-15);
     let urdf = temp_file(
+        "fk",
         "arm.urdf",
         r#"<robot name="tiny"><link name="base"/><link name="l1"/><link name="tool"/>
            <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
@@ -84,7 +69,8 @@ fn fk_reads_toml_and_urdf_robots() {
         armature(&["fk", "--robot", urdf.to_str().unwrap(), "--tip", "nowhere", "--q", "0"]);
     assert_eq!(code, 2);
     assert!(err.contains("no link named 'nowhere'"), "{err}");
-    let bad = temp_file("bad.toml", "name = \"x\"\nhome = { position = [0, 0, 0] }\njoints = 3\n");
+    let bad =
+        temp_file("fk", "bad.toml", "name = \"x\"\nhome = { position = [0, 0, 0] }\njoints = 3\n");
     let (code, _, err) = armature(&["fk", "--robot", bad.to_str().unwrap(), "--q", "0"]);
     assert_eq!(code, 2);
     assert!(err.contains("bad.toml:3:10"), "{err}");

@@ -1,26 +1,9 @@
 //! `armature ik` end to end: converged, not converged, keyframes, bad input.
 
-use std::process::Command;
+mod common;
 
+use common::{armature, temp_file};
 use serde_json::Value;
-
-fn armature(args: &[&str]) -> (i32, String, String) {
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_armature")).args(args).output().expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("armature-cli-ik-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 const SEED_KEYFRAMES: &str = r#"
 seed = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
@@ -91,7 +74,7 @@ fn single_target_converges_or_reports_best_effort() {
 
 #[test]
 fn keyframes_in_both_modes() {
-    let path = temp_file("seed.toml", SEED_KEYFRAMES);
+    let path = temp_file("ik", "seed.toml", SEED_KEYFRAMES);
     for extra in [&[][..], &["--sequential"][..]] {
         let mut args = vec!["ik", "--keyframes", path.to_str().unwrap()];
         args.extend_from_slice(extra);
@@ -107,9 +90,13 @@ fn keyframes_in_both_modes() {
 
 #[test]
 fn bad_input_exits_2() {
-    let bad_file =
-        temp_file("bad.toml", "[[keyframes]]\nnode = 0\nposition = [0.5, 0.0, 0.3]\nspeed = 3\n");
-    let unordered = temp_file("unordered.toml", &SEED_KEYFRAMES.replace("node = 4", "node = 1"));
+    let bad_file = temp_file(
+        "ik",
+        "bad.toml",
+        "[[keyframes]]\nnode = 0\nposition = [0.5, 0.0, 0.3]\nspeed = 3\n",
+    );
+    let unordered =
+        temp_file("ik", "unordered.toml", &SEED_KEYFRAMES.replace("node = 4", "node = 1"));
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["ik", "--pos", "0.3,0.1"], "--pos: expected 3 values, got 2"),
         (vec!["ik", "--pos", "0.3,nan,0.2"], "--pos: entry 2 is NaN"),

@@ -351,8 +351,16 @@ impl<'a> Builder<'a> {
         Arg::Slot(s)
     }
 
-    fn lie_instr(&mut self, op: LieOp, args: &[Arg], nout: usize) -> Vec<Arg> {
-        let key = Key::Lie(op, args.iter().map(|&a| a.into()).collect());
+    /// Emits a multi-output instruction (CSE'd on `key`): operand maps, `nout` output slots
+    /// with the operands' joint columns, and the instruction made by `instr(a0, n, out, nout,
+    /// maps)`.
+    fn emit_multi(
+        &mut self,
+        key: Key,
+        args: &[Arg],
+        nout: usize,
+        instr: impl FnOnce(u32, u32, u32, u32, u32) -> Instr,
+    ) -> Vec<Arg> {
         if let Some(&s) = self.cse.get(&key) {
             return (0..nout as u32).map(|k| Arg::Slot(s + k)).collect();
         }
@@ -361,16 +369,21 @@ impl<'a> Builder<'a> {
         for _ in 1..nout {
             self.new_slot(deps.clone());
         }
-        self.tape.instrs.push(Instr::Lie {
-            op,
-            a0,
-            n: args.len() as u32,
-            out: first,
-            nout: nout as u32,
-            maps,
-        });
+        self.tape.instrs.push(instr(a0, args.len() as u32, first, nout as u32, maps));
         self.cse.insert(key, first);
         (0..nout as u32).map(|k| Arg::Slot(first + k)).collect()
+    }
+
+    fn lie_instr(&mut self, op: LieOp, args: &[Arg], nout: usize) -> Vec<Arg> {
+        let key = Key::Lie(op, args.iter().map(|&a| a.into()).collect());
+        self.emit_multi(key, args, nout, |a0, n, out, nout, maps| Instr::Lie {
+            op,
+            a0,
+            n,
+            out,
+            nout,
+            maps,
+        })
     }
 
     // ----- expression lowering ---------------------------------------------------------------
@@ -733,28 +746,22 @@ impl<'a> Builder<'a> {
         if let Some(&s) = self.cse.get(&key) {
             return (0..m as u32).map(|k| Arg::Slot(s + k)).collect();
         }
-        let index = match self.tape.externals.iter().position(|f| std::sync::Arc::ptr_eq(f, func)) {
-            Some(i) => i,
-            None => {
-                self.tape.externals.push(func.clone());
-                self.tape.externals.len() - 1
-            }
-        } as u32;
-        let (a0, maps, deps) = self.multi(args);
-        let first = self.new_slot(deps.clone());
-        for _ in 1..m {
-            self.new_slot(deps.clone());
-        }
-        self.tape.instrs.push(Instr::External {
-            func: index,
+        let func_index =
+            match self.tape.externals.iter().position(|f| std::sync::Arc::ptr_eq(f, func)) {
+                Some(i) => i,
+                None => {
+                    self.tape.externals.push(func.clone());
+                    self.tape.externals.len() - 1
+                }
+            } as u32;
+        self.emit_multi(key, args, m, |a0, n, out, nout, maps| Instr::External {
+            func: func_index,
             a0,
-            n: args.len() as u32,
-            out: first,
-            nout: m as u32,
+            n,
+            out,
+            nout,
             maps,
-        });
-        self.cse.insert(key, first);
-        (0..m as u32).map(|k| Arg::Slot(first + k)).collect()
+        })
     }
 
     // ----- vmap -----------------------------------------------------------------------------
