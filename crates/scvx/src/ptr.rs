@@ -235,6 +235,8 @@ struct NodalRow {
     node: usize,
     output: usize,
     row: usize,
+    /// Index of its (constraint, node) evaluation block in `g_offsets`.
+    eval: usize,
 }
 
 /// The PTR solver for one [`Ocp`], with its subproblem pattern built once.
@@ -380,7 +382,7 @@ impl Ptr {
                         }
                     }
                     trip.push((row, buffer, Source::Const(-1.0)));
-                    nodal_rows.push(NodalRow { constraint: ci, node: k, output: out, row });
+                    nodal_rows.push(NodalRow { constraint: ci, node: k, output: out, row, eval });
                     b.push(0.0);
                     row += 1;
                     buffer += 1;
@@ -549,10 +551,7 @@ impl Ptr {
             self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
             for nr in &self.nodal_rows {
                 let c = &self.ocp.nodal[nr.constraint];
-                let e =
-                    self.ocp.nodal[..nr.constraint].iter().map(|c| c.nodes.len()).sum::<usize>()
-                        + c.nodes.iter().position(|&k| k == nr.node).unwrap_or(0);
-                let (vo, jo) = self.g_offsets[e];
+                let (vo, jo) = self.g_offsets[nr.eval];
                 let p = c.function.jacobian_pattern();
                 let mut rhs = -ev.values[vo + nr.output];
                 for col in 0..p.ncols() {
