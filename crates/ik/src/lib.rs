@@ -4,9 +4,11 @@
 mod error;
 mod interpolation;
 mod solver;
+mod spline;
 
 pub use error::IkError;
 pub use interpolation::{IkTrajectory, Keyframe, Mode, ik_interpolation, interpolate_targets};
 pub use solver::{
     IkResult, IkSettings, IkWorkspace, LOCAL_RESTART_STEP, LOCAL_RESTARTS, Nullspace, Target, solve,
 };
+pub use spline::JointSpline;

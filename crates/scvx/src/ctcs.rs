@@ -8,6 +8,19 @@
 
 use armature_symbolic::Expr;
 
+/// The penalty `p(g)` integrated by a CTCS state.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Penalty {
+    /// `max(0, g)²` (OpenSCvx's default): smooth, but its gradient vanishes with the
+    /// violation, so a small ε makes the linearization degenerate.
+    #[default]
+    SquaredRelu,
+    /// `max(0, g)`: the integral bounds the violation linearly (`v·δ/2 ≤ ε` for a violation `v`
+    /// lasting `δ`), and its gradient does not vanish as the violation shrinks.
+    Relu,
+}
+
 /// Constraints `g ≤ 0` (each any shape) enforced continuously over nodes `first..=last`.
 #[derive(Debug, Clone)]
 pub struct CtcsGroup {
@@ -17,6 +30,8 @@ pub struct CtcsGroup {
     pub first: usize,
     /// Last node of the interval.
     pub last: usize,
+    /// The penalty integrated.
+    pub penalty: Penalty,
 }
 
 /// The augmented states of `groups`: `(y variable, its right-hand side)` per group, named
@@ -30,7 +45,11 @@ pub fn ctcs_states(groups: &[CtcsGroup]) -> Vec<(Expr, Expr)> {
             let y = Expr::variable(&format!("_ctcs_{i}"), 1);
             let mut rhs = Expr::scalar(0.0);
             for c in &g.constraints {
-                rhs = rhs + c.squared_pos().sum();
+                let p = match g.penalty {
+                    Penalty::SquaredRelu => c.squared_pos(),
+                    Penalty::Relu => c.pos(),
+                };
+                rhs = rhs + p.sum();
             }
             (y, rhs)
         })

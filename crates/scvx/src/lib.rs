@@ -5,10 +5,11 @@ pub mod ctcs;
 pub mod discretization;
 pub mod ptr;
 
-pub use ctcs::{CtcsGroup, ctcs_states};
+pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
     Discretization, DiscretizationError, DiscretizationSettings, DiscretizationWorkspace, Dynamics,
 };
 pub use ptr::{
-    Iteration, NodalConstraint, Ocp, Ptr, PtrResult, PtrSettings, PtrStatus, TrustRegionUpdate,
+    Iteration, NodalConstraint, NodalKind, Ocp, Ptr, PtrResult, PtrSettings, PtrStatus,
+    TrustRegionUpdate,
 };

@@ -19,21 +19,26 @@
 //! The constraint matrix's pattern is built once with a value source per nonzero; each
 //! iteration refills the values and updates Clarabel in place (presolve off).
 //!
+//! The subproblem is solved in deviation form (unknowns `Δz = z − z̄`), so its objective
+//! carries no `λ_tr‖z̄‖²` offset that would swamp Clarabel's relative tolerances at large λ_tr.
+//! Nodal constraints are either entrywise inequalities (linearised, with a virtual buffer
+//! each) or balls `‖g‖ ≤ r` kept as second-order cones around the linearised `g`.
+//!
 //! # Acceptance
-//! By default every step is accepted with a constant trust-region weight (the published
-//! PTR). Optionally ([`TrustRegionUpdate::Adaptive`]) the merit
-//! `J(z) = w_t·t_f(z) + Σ λ_vc,i·|defect_i(z)| + λ_vb·Σ max(0, g)` and the subproblem's
-//! prediction `L(z*)` give `ρ = (J(z̄) − J(z*)) / (J(z̄) − L(z*))`; a step with `ρ < η₀` is
-//! rejected and λ_tr doubles (so the next subproblem differs — no identical re-solves),
-//! otherwise λ_tr adapts (×2 below η₁, ×½ above η₂). Either way, rows whose defect persists
-//! get heavier virtual-control weights. Converged when an accepted step is
-//! stationary (`max(1, λ_tr)²‖Δz‖² < ε_tr`), the largest nonlinear defect is below
-//! `ε_defect` and the largest nodal violation below `ε_vb`.
+//! By default ([`TrustRegionUpdate::Adaptive`]) the merit
+//! `J(z) = w_t·t_f(z) + Σ λ_vc,i·|defect_i(z)| + Σ λ_vb·max(0, violation)` and the
+//! subproblem's prediction `L(z*)` give `ρ = (J(z̄) − J(z*)) / (J(z̄) − L(z*))`; a step with
+//! `ρ < η₀` is rejected and λ_tr doubles (so the next subproblem differs — no identical
+//! re-solves), otherwise λ_tr adapts (×2 below η₁, ×½ above η₂). The published PTR
+//! ([`TrustRegionUpdate::Constant`]) accepts every step. A row whose subproblem bought virtual
+//! control (or a buffer) gets a doubled price — the ℓ1 penalty is exact only above the
+//! multiplier. Converged when an accepted step has `‖Δz‖²_S < ε_tr`, the largest nonlinear
+//! defect is below `ε_defect` and the largest nodal violation below `ε_vb`.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
-    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT,
-    ZeroConeT,
+    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SecondOrderConeT, SolverStatus,
+    SupportedConeT, ZeroConeT,
 };
 use serde::Serialize;
 
@@ -62,6 +67,8 @@ pub struct Ocp {
     pub s_min: f64,
     /// Bounds of the time dilation.
     pub s_max: f64,
+    /// Bounds of the final time `Δτ·Σ_{k<N−1} s_k` (a linear constraint; `(0, ∞)` for none).
+    pub final_time: (f64, f64),
     /// Weight of the final time in the cost (0: fixed-time feasibility).
     pub time_weight: f64,
     /// CTCS increments `(state row, ε, first node, last node)`: `y_{k+1} − y_k ≤ ε` for the
@@ -71,7 +78,7 @@ pub struct Ocp {
     pub nodal: Vec<NodalConstraint>,
 }
 
-/// A (generally nonconvex) constraint `g(x_k, u_k) ≤ 0` at listed nodes.
+/// A (generally nonconvex) constraint on `g(x_k, u_k)` at listed nodes.
 #[derive(Debug, Clone)]
 pub struct NodalConstraint {
     /// Name for diagnostics.
@@ -80,6 +87,23 @@ pub struct NodalConstraint {
     pub function: armature_symbolic::Function,
     /// Nodes where it holds.
     pub nodes: Vec<usize>,
+    /// What it says about `g`.
+    pub kind: NodalKind,
+}
+
+/// The meaning of a [`NodalConstraint`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum NodalKind {
+    /// `g ≤ 0` entrywise, linearised: `g(z̄) + ∇g·(z − z̄) ≤ ν_b` per entry.
+    Inequality,
+    /// `‖g‖₂ ≤ radius` (e.g. `g = p_ee − waypoint`), linearised inside the norm only:
+    /// `‖g(z̄) + ∇g·(z − z̄)‖ ≤ radius + ν_b`, a second-order cone. Keeping the norm exact
+    /// (the prox-linear model) captures the ball's curvature, which a linearised norm would
+    /// leave to the trust region.
+    Ball {
+        /// The radius.
+        radius: f64,
+    },
 }
 
 /// PTR settings with documented defaults.
@@ -91,26 +115,24 @@ pub struct PtrSettings {
     pub lam_tr_min: f64,
     /// Bounds of λ_tr.
     pub lam_tr_max: f64,
-    /// Cap of the per-row virtual-control weights, which double on rows whose defect stays
-    /// above `eps_defect` after an accepted step (OpenSCvx's autotuner raises λ_vc the same
-    /// way; CTCS rows need it: their squared-ReLU integrands have zero gradient at
-    /// feasibility). Default 1e6.
+    /// Cap of the per-row virtual-control and buffer weights. Default 1e6.
     pub lam_vc_max: f64,
-    /// Initial virtual-buffer weight λ_vb of nodal constraints (per row; doubles while the
-    /// row's violation persists, up to `lam_vc_max`). Default 1e2.
+    /// Initial virtual-buffer weight λ_vb of nodal constraints, relative to the time weight
+    /// (per buffer; doubles when the subproblem buys that buffer, up to `lam_vc_max`).
+    /// Default 0.3.
     pub lam_vb: f64,
     /// Convergence: largest nodal violation. Default 1e-6.
     pub eps_vb: f64,
-    /// Virtual-control weight λ_vc (exact-penalty weight: must exceed the dynamics
-    /// multipliers; larger values make the merit dominated by second-order defects and
-    /// slow the trust region). Default 1e2.
+    /// Initial virtual-control weight λ_vc per state row (exact-penalty weight: it must
+    /// exceed the dynamics multipliers, and doubles when the subproblem buys virtual control;
+    /// a heavier start makes the merit dominated by second-order defects and slows the trust
+    /// region — 0.3 suits a time weight of 1 on the seed problem). Default 0.3.
     pub lam_vc: f64,
-    /// Convergence: `max(1, λ_tr)²·‖Δz‖²` of an accepted step (a stationarity measure: the
-    /// step norm alone would declare convergence whenever λ_tr is large). Default 1e-4.
+    /// Convergence: `‖Δz‖²` (scaled) of an accepted step. Default 1e-6.
     pub eps_tr: f64,
     /// Convergence: largest nonlinear defect. Default 1e-6.
     pub eps_defect: f64,
-    /// How the trust-region weight evolves. Default [`TrustRegionUpdate::Constant`].
+    /// How the trust-region weight evolves. Default `Adaptive { eta: [0, 0.1, 0.5] }`.
     pub trust_region: TrustRegionUpdate,
     /// Iteration cap. Default 100.
     pub max_iterations: usize,
@@ -124,13 +146,13 @@ impl Default for PtrSettings {
             lam_tr: 1.0,
             lam_tr_min: 1e-4,
             lam_tr_max: 1e6,
-            lam_vc: 1e2,
+            lam_vc: 0.3,
             lam_vc_max: 1e6,
-            lam_vb: 1e2,
+            lam_vb: 0.3,
             eps_vb: 1e-6,
-            eps_tr: 1e-4,
+            eps_tr: 1e-6,
             eps_defect: 1e-6,
-            trust_region: TrustRegionUpdate::Constant,
+            trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.5] },
             max_iterations: 100,
             discretization: DiscretizationSettings::default(),
         }
@@ -217,6 +239,8 @@ enum Source {
     Bp(usize),
     /// A nodal-constraint Jacobian nonzero (index into the per-iteration buffer).
     G(usize),
+    /// Its negative (cone rows: `s = b − A z`).
+    NegG(usize),
 }
 
 /// Scratch for evaluating the nodal constraints (allocated once per solve).
@@ -226,6 +250,7 @@ struct NodalEval {
     input: Vec<f64>,
     values: Vec<f64>,
     jac: Vec<f64>,
+    violation: Vec<f64>,
 }
 
 /// Where one nodal constraint row sits: its evaluation block and its subproblem row.
@@ -237,6 +262,8 @@ struct NodalRow {
     row: usize,
     /// Index of its (constraint, node) evaluation block in `g_offsets`.
     eval: usize,
+    /// A cone row (`b = g(z̄) − ∇g·z̄`) rather than an inequality (`b = ∇g·z̄ − g(z̄)`).
+    cone: bool,
 }
 
 /// The PTR solver for one [`Ocp`], with its subproblem pattern built once.
@@ -259,6 +286,10 @@ pub struct Ptr {
     /// Per (constraint, node) evaluation: offset of its values and Jacobian nonzeros.
     g_offsets: Vec<(usize, usize)>,
     g_len: (usize, usize),
+    /// Per virtual buffer: its evaluation block and output (`None` for a ball's norm).
+    buffers: Vec<(usize, usize, Option<usize>)>,
+    /// Sizes of the second-order cones (after the nonnegative rows).
+    socs: Vec<usize>,
 }
 
 impl Ptr {
@@ -277,8 +308,17 @@ impl Ptr {
         let vp0 = s0 + nn;
         let vm0 = vp0 + (nn - 1) * n;
         let vb0 = vm0 + (nn - 1) * n;
-        let n_buffers: usize =
-            ocp.nodal.iter().map(|c| c.nodes.len() * c.function.n_outputs()).sum();
+        let n_buffers: usize = ocp
+            .nodal
+            .iter()
+            .map(|c| {
+                c.nodes.len()
+                    * match c.kind {
+                        NodalKind::Inequality => c.function.n_outputs(),
+                        NodalKind::Ball { .. } => 1,
+                    }
+            })
+            .sum();
         let n_vars = vb0 + n_buffers;
         // Evaluation buffers of the nodal constraints, per (constraint, node).
         let mut g_offsets = Vec::new();
@@ -355,6 +395,16 @@ impl Ptr {
             ineq(s0 + k, 1.0, ocp.s_max, &mut trip, &mut b, &mut row);
             ineq(s0 + k, -1.0, ocp.s_min, &mut trip, &mut b, &mut row);
         }
+        let dtau = 1.0 / (nn - 1) as f64;
+        for (sign, bound) in [(1.0, ocp.final_time.1), (-1.0, ocp.final_time.0)] {
+            if bound.is_finite() && (sign > 0.0 || bound > 0.0) {
+                for k in 0..nn - 1 {
+                    trip.push((row, s0 + k, Source::Const(sign * dtau)));
+                }
+                b.push(sign * bound);
+                row += 1;
+            }
+        }
         for &(r, eps, first, last) in &ocp.increments {
             for k in first..last.min(nn - 1) {
                 trip.push((row, x0 + (k + 1) * n + r, Source::Const(1.0)));
@@ -364,28 +414,51 @@ impl Ptr {
             }
         }
         // Nodal rows ∇g·z − ν_b ≤ ∇g·z̄ − g(z̄) (values refilled per iteration).
-        let mut nodal_rows = Vec::new();
-        let mut eval = 0;
-        let mut buffer = vb0;
-        for (ci, c) in ocp.nodal.iter().enumerate() {
+        // Entries of output `out` of a (constraint, node) Jacobian as subproblem columns.
+        let jac_row = |c: &NodalConstraint, k: usize, goff: usize, out: usize| {
             let p = c.function.jacobian_pattern();
+            let mut v = Vec::new();
+            for col in 0..p.ncols() {
+                for nzi in p.col_ptr()[col]..p.col_ptr()[col + 1] {
+                    if p.row_idx()[nzi] == out {
+                        let var = if col < n { x0 + k * n + col } else { u0 + k * m + (col - n) };
+                        v.push((var, goff + nzi));
+                    }
+                }
+            }
+            v
+        };
+        let mut nodal_rows = Vec::new();
+        let mut buffers = Vec::new();
+        let mut eval = 0;
+        let mut ball_evals = Vec::new();
+        for (ci, c) in ocp.nodal.iter().enumerate() {
             for &k in &c.nodes {
                 let (_, goff) = g_offsets[eval];
-                for out in 0..c.function.n_outputs() {
-                    for col in 0..p.ncols() {
-                        for nzi in p.col_ptr()[col]..p.col_ptr()[col + 1] {
-                            if p.row_idx()[nzi] == out {
-                                let var =
-                                    if col < n { x0 + k * n + col } else { u0 + k * m + (col - n) };
-                                trip.push((row, var, Source::G(goff + nzi)));
+                match c.kind {
+                    NodalKind::Inequality => {
+                        for out in 0..c.function.n_outputs() {
+                            for (var, i) in jac_row(c, k, goff, out) {
+                                trip.push((row, var, Source::G(i)));
                             }
+                            trip.push((row, vb0 + buffers.len(), Source::Const(-1.0)));
+                            nodal_rows.push(NodalRow {
+                                constraint: ci,
+                                node: k,
+                                output: out,
+                                row,
+                                eval,
+                                cone: false,
+                            });
+                            buffers.push((eval, ci, Some(out)));
+                            b.push(0.0);
+                            row += 1;
                         }
                     }
-                    trip.push((row, buffer, Source::Const(-1.0)));
-                    nodal_rows.push(NodalRow { constraint: ci, node: k, output: out, row, eval });
-                    b.push(0.0);
-                    row += 1;
-                    buffer += 1;
+                    NodalKind::Ball { .. } => {
+                        ball_evals.push((ci, k, eval, vb0 + buffers.len()));
+                        buffers.push((eval, ci, None));
+                    }
                 }
                 eval += 1;
             }
@@ -394,6 +467,32 @@ impl Ptr {
             ineq(c, -1.0, 0.0, &mut trip, &mut b, &mut row);
         }
         let n_nonneg = row - n_zero;
+        // Balls: [radius + ν_b; g(z̄) + ∇g·(z − z̄)] in the second-order cone.
+        let mut socs = Vec::new();
+        for &(ci, k, ev, buffer) in &ball_evals {
+            let c = &ocp.nodal[ci];
+            let NodalKind::Ball { radius } = c.kind else { continue };
+            trip.push((row, buffer, Source::Const(-1.0)));
+            b.push(radius);
+            row += 1;
+            let (_, goff) = g_offsets[ev];
+            for out in 0..c.function.n_outputs() {
+                for (var, i) in jac_row(c, k, goff, out) {
+                    trip.push((row, var, Source::NegG(i)));
+                }
+                nodal_rows.push(NodalRow {
+                    constraint: ci,
+                    node: k,
+                    output: out,
+                    row,
+                    eval: ev,
+                    cone: true,
+                });
+                b.push(0.0);
+                row += 1;
+            }
+            socs.push(1 + c.function.n_outputs());
+        }
         trip.sort_by_key(|t| (t.1, t.0));
         let mut a_colptr = vec![0; n_vars + 1];
         for t in &trip {
@@ -420,14 +519,20 @@ impl Ptr {
             nodal_rows,
             g_offsets,
             g_len: (gv, gj),
+            buffers,
+            socs,
         }
     }
 
-    /// Evaluates every nodal constraint at `(x, u)` into the buffers; returns
-    /// `(Σ max(0, g), max(0, max g))`.
+    /// The problem.
+    pub fn ocp(&self) -> &Ocp {
+        &self.ocp
+    }
+
+    /// Evaluates every nodal constraint at `(x, u)` into the buffers (values, Jacobians and
+    /// per-buffer violations); returns `(Σ w·violation, largest violation)`.
     fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval, weights: &[f64]) -> (f64, f64) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let (mut sum, mut max) = (0.0, 0.0f64);
         let mut e = 0;
         for (ci, c) in self.ocp.nodal.iter().enumerate() {
             let (nout, nnz) = (c.function.n_outputs(), c.function.jacobian_pattern().nnz());
@@ -440,12 +545,24 @@ impl Ptr {
                 if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, Some(jac)).is_err() {
                     vals.fill(f64::INFINITY);
                 }
-                for (o, v) in vals.iter().enumerate() {
-                    sum += weights[vo + o] * v.max(0.0);
-                    max = max.max(*v);
-                }
                 e += 1;
             }
+        }
+        let (mut sum, mut max) = (0.0, 0.0f64);
+        for (i, &(eval, ci, out)) in self.buffers.iter().enumerate() {
+            let c = &self.ocp.nodal[ci];
+            let vo = self.g_offsets[eval].0;
+            let v = match (out, c.kind) {
+                (Some(o), _) => ev.values[vo + o],
+                (None, NodalKind::Ball { radius }) => {
+                    let g = &ev.values[vo..vo + c.function.n_outputs()];
+                    g.iter().map(|v| v * v).sum::<f64>().sqrt() - radius
+                }
+                (None, NodalKind::Inequality) => 0.0,
+            };
+            ev.violation[i] = v.max(0.0);
+            sum += weights[i] * v.max(0.0);
+            max = max.max(v);
         }
         (sum, max)
     }
@@ -501,9 +618,10 @@ impl Ptr {
             input: vec![0.0; n + m],
             values: vec![0.0; self.g_len.0],
             jac: vec![0.0; self.g_len.1],
+            violation: vec![0.0; self.buffers.len()],
         };
         let mut lam_vc = vec![set.lam_vc; n];
-        let mut lam_vb = vec![set.lam_vb; self.g_len.0];
+        let mut lam_vb = vec![set.lam_vb; self.buffers.len()];
         let (mut jbar, mut tf, _, _) =
             self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb));
         let mut lam_tr = set.lam_tr;
@@ -514,6 +632,8 @@ impl Ptr {
         let p_colptr: Vec<usize> = (0..=self.n_vars).map(|c| c.min(n_primal)).collect();
         let p_rowval: Vec<usize> = (0..n_primal).collect();
         let mut q = vec![0.0; self.n_vars];
+        let mut zbar = vec![0.0; n_primal];
+        let mut zc = vec![0.0; n_primal];
         let mut pvals = vec![0.0; n_primal];
         // Trust-region scale per variable: S = max(1, range/2) from its bounds (OpenSCvx's
         // affine scaling), so the region is measured in comparable units.
@@ -537,8 +657,9 @@ impl Ptr {
             .collect();
         let mut nz = vec![0.0; self.a_rowval.len()];
         let mut b = self.b.clone();
-        let cones: Vec<SupportedConeT<f64>> =
+        let mut cones: Vec<SupportedConeT<f64>> =
             vec![ZeroConeT(self.n_zero), NonnegativeConeT(self.n_nonneg)];
+        cones.extend(self.socs.iter().map(|&d| SecondOrderConeT(d)));
         let settings = DefaultSettings::<f64> {
             verbose: false,
             presolve_enable: false,
@@ -547,6 +668,7 @@ impl Ptr {
         let mut solver: Option<DefaultSolver<f64>> = None;
         let mut status = PtrStatus::MaxIterations;
         for it in 1..=set.max_iterations {
+            b.copy_from_slice(&self.b);
             // Nodal constraints linearised at the reference: rows' right-hand sides.
             self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
             for nr in &self.nodal_rows {
@@ -566,7 +688,7 @@ impl Ptr {
                         }
                     }
                 }
-                b[nr.row] = rhs;
+                b[nr.row] = if nr.cone { -rhs } else { rhs };
             }
             // Values of this linearization.
             for (v, src) in nz.iter_mut().zip(&self.sources) {
@@ -576,6 +698,7 @@ impl Ptr {
                     Source::Bm(i) => dbar.b_minus[i],
                     Source::Bp(i) => dbar.b_plus[i],
                     Source::G(i) => ev.jac[i],
+                    Source::NegG(i) => -ev.jac[i],
                 };
             }
             for k in 0..nn - 1 {
@@ -592,17 +715,18 @@ impl Ptr {
                     b[k * n + r] = -c;
                 }
             }
-            q.fill(0.0);
-            for (i, qi) in q.iter_mut().enumerate().take(n_primal) {
-                let zbar = if i < u0 {
-                    xb[i]
-                } else if i < s0 {
-                    ub[i - u0]
-                } else {
-                    sb[i - s0]
-                };
-                *qi = -2.0 * lam_tr * inv_s2[i] * zbar;
+            // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
+            // `A z ≤ b` becomes `A Δz ≤ b − A z̄`. The objective then carries no λ_tr‖z̄‖²
+            // offset, which at large λ_tr would swamp Clarabel's relative gap tolerance.
+            zbar[..u0].copy_from_slice(&xb);
+            zbar[u0..s0].copy_from_slice(&ub);
+            zbar[s0..vp0].copy_from_slice(&sb);
+            for c in 0..n_primal {
+                for p in self.a_colptr[c]..self.a_colptr[c + 1] {
+                    b[self.a_rowval[p]] -= nz[p] * zbar[c];
+                }
             }
+            q.fill(0.0);
             for k in 0..nn - 1 {
                 q[s0 + k] += self.ocp.time_weight * dtau;
             }
@@ -656,24 +780,16 @@ impl Ptr {
                 }
             }
             let z = &sv.solution.x;
-            let (xc, uc, sc) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
+            for i in 0..n_primal {
+                zc[i] = zbar[i] + z[i];
+            }
+            let (xc, uc, sc) = (&zc[..u0], &zc[u0..s0], &zc[s0..vp0]);
             let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
             let vc_cost: f64 =
                 z[vp0..self.vb0].iter().enumerate().map(|(i, v)| lam_vc[i % n] * v.abs()).sum();
             let vb_cost: f64 =
                 z[self.vb0..nv].iter().zip(&lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
-            let j_tr: f64 = (0..n_primal)
-                .map(|i| {
-                    let zb = if i < u0 {
-                        xb[i]
-                    } else if i < s0 {
-                        ub[i - u0]
-                    } else {
-                        sb[i - s0]
-                    };
-                    (z[i] - zb).powi(2) * inv_s2[i]
-                })
-                .sum();
+            let j_tr: f64 = (0..n_primal).map(|i| z[i] * z[i] * inv_s2[i]).sum();
             self.ocp.dynamics.discretize(
                 xc,
                 uc,
@@ -704,6 +820,29 @@ impl Ptr {
                 rho,
                 lam_tr,
             });
+            // Exact-penalty prices: the ℓ1 penalty is exact only above the constraint's
+            // multiplier, so a row whose subproblem bought virtual control (or a buffer) at
+            // this price is priced too low — double it. Nonlinear defects after a step are a
+            // curvature effect that shrinks with the step and does not raise prices (raising
+            // them there makes second-order defects dominate the merit and stalls the trust
+            // region: the Maratos effect).
+            let mut repriced = false;
+            let nseg = (nn - 1) * n;
+            for r in 0..n {
+                let used = (0..nn - 1)
+                    .map(|k| z[vp0 + k * n + r] + z[vp0 + nseg + k * n + r])
+                    .fold(0.0, f64::max);
+                if used > set.eps_defect && lam_vc[r] < set.lam_vc_max {
+                    lam_vc[r] = (lam_vc[r] * 2.0).min(set.lam_vc_max);
+                    repriced = true;
+                }
+            }
+            for (w, v) in lam_vb.iter_mut().zip(&z[self.vb0..nv]) {
+                if *v > set.eps_vb && *w < set.lam_vc_max {
+                    *w = (*w * 2.0).min(set.lam_vc_max);
+                    repriced = true;
+                }
+            }
             if accept {
                 xb.copy_from_slice(xc);
                 ub.copy_from_slice(uc);
@@ -712,32 +851,10 @@ impl Ptr {
                 (jbar, tf) = (jc, tfc);
                 // Stationarity, not just a short step: the subproblem's optimality gives
                 // ‖∇L‖ ≈ 2λ_tr‖Δz‖, so a step kept short by a heavy trust region does not count.
-                let stationary = j_tr * lam_tr.max(1.0).powi(2) < set.eps_tr;
+                let stationary = j_tr < set.eps_tr;
                 if stationary && max_defect < set.eps_defect && max_violation < set.eps_vb {
                     status = PtrStatus::Converged;
                     break;
-                }
-                // Rows whose defect persists get a heavier virtual-control price; the reference
-                // merit is re-evaluated under the new weights so ρ stays consistent.
-                let mut changed = false;
-                for r in 0..n {
-                    let row_max =
-                        (0..nn - 1).map(|k| dbar.defect[k * n + r].abs()).fold(0.0, f64::max);
-                    if row_max > set.eps_defect && lam_vc[r] < set.lam_vc_max {
-                        lam_vc[r] = (lam_vc[r] * 2.0).min(set.lam_vc_max);
-                        changed = true;
-                    }
-                }
-                // Likewise for nodal constraints whose violation persists (the buffer values of
-                // the new reference are in `ev` from its merit evaluation).
-                for (w, v) in lam_vb.iter_mut().zip(&ev.values) {
-                    if *v > set.eps_vb && *w < set.lam_vc_max {
-                        *w = (*w * 2.0).min(set.lam_vc_max);
-                        changed = true;
-                    }
-                }
-                if changed {
-                    jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb)).0;
                 }
                 if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
                     if rho < eta[1] {
@@ -752,6 +869,10 @@ impl Ptr {
                     break;
                 }
                 lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
+            }
+            // The reference merit under the (possibly new) prices, so ρ stays consistent.
+            if repriced {
+                jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb)).0;
             }
         }
         Ok(PtrResult { status, x: xb, u: ub, s: sb, final_time: tf, history })

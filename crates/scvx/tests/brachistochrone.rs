@@ -45,6 +45,7 @@ fn brachistochrone_matches_the_cycloid() {
         x_final: vec![Some(xf), Some(yf), None],
         s_min: 0.05,
         s_max: 5.0,
+        final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         increments: vec![],
         nodal: vec![],

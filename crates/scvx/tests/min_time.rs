@@ -1,7 +1,7 @@
 //! Analytic reference: the minimum-time double integrator is bang–bang with T* = 2 s for a
 //! rest-to-rest move of 1 m with |a| ≤ 1 m/s².
 
-use armature_scvx::{Dynamics, Ocp, Ptr, PtrSettings, PtrStatus};
+use armature_scvx::{Dynamics, Ocp, Ptr, PtrSettings, PtrStatus, TrustRegionUpdate};
 use armature_symbolic::Expr;
 
 fn problem(nodes: usize) -> Ocp {
@@ -20,6 +20,7 @@ fn problem(nodes: usize) -> Ocp {
         x_final: vec![Some(1.0), Some(0.0)],
         s_min: 0.1,
         s_max: 10.0,
+        final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         increments: vec![],
         nodal: vec![],
@@ -29,7 +30,14 @@ fn problem(nodes: usize) -> Ocp {
 #[test]
 fn minimum_time_double_integrator_is_bang_bang() {
     let nodes = 41;
-    let mut ptr = Ptr::new(problem(nodes), PtrSettings::default());
+    // The published PTR: constant trust region, heavy virtual-control price.
+    let settings = PtrSettings {
+        trust_region: TrustRegionUpdate::Constant,
+        lam_vc: 1e2,
+        eps_tr: 1e-4,
+        ..PtrSettings::default()
+    };
+    let mut ptr = Ptr::new(problem(nodes), settings);
     // A poor guess: straight line in position, no acceleration, 3 s.
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
     let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
