@@ -23,7 +23,8 @@
 
 use crate::IkError;
 
-/// The clamped cubic spline through a joint path (see the [module docs](self)).
+/// The clamped cubic spline through a joint path: knot accelerations from the clamped
+/// tridiagonal system, so FOH torques `τ = I q̈` at the nodes reproduce it exactly.
 ///
 /// ```
 /// use armature_ik::JointSpline;
