@@ -1,0 +1,29 @@
+//! The seed pick-and-place: one full solve (after problem construction) and one
+//! discretization of the guess.
+
+#[path = "../tests/seed/mod.rs"]
+mod seed;
+
+use armature_scvx::{Ptr, PtrSettings};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let s = seed::build();
+    let mut g = c.benchmark_group("seed_pick_and_place");
+    g.sample_size(10);
+    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    g.bench_function("solve", |b| {
+        b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
+    });
+    let d = &s.ocp.dynamics;
+    let mut ws = d.workspace();
+    let mut out = d.output(seed::NODES);
+    g.bench_function("discretize", |b| {
+        b.iter(|| d.discretize(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
