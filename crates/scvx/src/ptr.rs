@@ -256,8 +256,6 @@ struct NodalEval {
 /// Where one nodal constraint row sits: its evaluation block and its subproblem row.
 #[derive(Debug, Clone, Copy)]
 struct NodalRow {
-    constraint: usize,
-    node: usize,
     output: usize,
     row: usize,
     /// Index of its (constraint, node) evaluation block in `g_offsets`.
@@ -442,14 +440,7 @@ impl Ptr {
                                 trip.push((row, var, Source::G(i)));
                             }
                             trip.push((row, vb0 + buffers.len(), Source::Const(-1.0)));
-                            nodal_rows.push(NodalRow {
-                                constraint: ci,
-                                node: k,
-                                output: out,
-                                row,
-                                eval,
-                                cone: false,
-                            });
+                            nodal_rows.push(NodalRow { output: out, row, eval, cone: false });
                             buffers.push((eval, ci, Some(out)));
                             b.push(0.0);
                             row += 1;
@@ -480,14 +471,7 @@ impl Ptr {
                 for (var, i) in jac_row(c, k, goff, out) {
                     trip.push((row, var, Source::NegG(i)));
                 }
-                nodal_rows.push(NodalRow {
-                    constraint: ci,
-                    node: k,
-                    output: out,
-                    row,
-                    eval: ev,
-                    cone: true,
-                });
+                nodal_rows.push(NodalRow { output: out, row, eval: ev, cone: true });
                 b.push(0.0);
                 row += 1;
             }
@@ -598,7 +582,6 @@ impl Ptr {
         s: &[f64],
     ) -> Result<PtrResult, crate::DiscretizationError> {
         let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
-        let mc = m + 1;
         let (u0, s0, vp0, _) = self.layout();
         let nv = self.n_vars;
         let set = self.settings.clone();
@@ -668,29 +651,8 @@ impl Ptr {
         let mut solver: Option<DefaultSolver<f64>> = None;
         let mut status = PtrStatus::MaxIterations;
         for it in 1..=set.max_iterations {
-            b.copy_from_slice(&self.b);
-            // Nodal constraints linearised at the reference: rows' right-hand sides.
-            self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
-            for nr in &self.nodal_rows {
-                let c = &self.ocp.nodal[nr.constraint];
-                let (vo, jo) = self.g_offsets[nr.eval];
-                let p = c.function.jacobian_pattern();
-                let mut rhs = -ev.values[vo + nr.output];
-                for col in 0..p.ncols() {
-                    for nzi in p.col_ptr()[col]..p.col_ptr()[col + 1] {
-                        if p.row_idx()[nzi] == nr.output {
-                            let zbar = if col < n {
-                                xb[nr.node * n + col]
-                            } else {
-                                ub[nr.node * m + col - n]
-                            };
-                            rhs += ev.jac[jo + nzi] * zbar;
-                        }
-                    }
-                }
-                b[nr.row] = if nr.cone { -rhs } else { rhs };
-            }
             // Values of this linearization.
+            self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
             for (v, src) in nz.iter_mut().zip(&self.sources) {
                 *v = match *src {
                     Source::Const(c) => c,
@@ -701,30 +663,26 @@ impl Ptr {
                     Source::NegG(i) => -ev.jac[i],
                 };
             }
-            for k in 0..nn - 1 {
-                for r in 0..n {
-                    let mut c = dbar.x_prop[k * n + r];
-                    for j in 0..n {
-                        c -= dbar.a[k * n * n + r * n + j] * xb[k * n + j];
-                    }
-                    for i in 0..m {
-                        c -= dbar.b_minus[k * n * mc + r * mc + i] * ub[k * m + i];
-                        c -= dbar.b_plus[k * n * mc + r * mc + i] * ub[(k + 1) * m + i];
-                    }
-                    c -= dbar.b_minus[k * n * mc + r * mc + m] * sb[k];
-                    b[k * n + r] = -c;
-                }
-            }
             // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
-            // `A z ≤ b` becomes `A Δz ≤ b − A z̄`. The objective then carries no λ_tr‖z̄‖²
-            // offset, which at large λ_tr would swamp Clarabel's relative gap tolerance.
+            // the constant rows `A z ≤ b` become `A Δz ≤ b − A z̄`. The objective then carries
+            // no λ_tr‖z̄‖² offset, which at large λ_tr would swamp Clarabel's relative gap
+            // tolerance.
             zbar[..u0].copy_from_slice(&xb);
             zbar[u0..s0].copy_from_slice(&ub);
             zbar[s0..vp0].copy_from_slice(&sb);
+            b.copy_from_slice(&self.b);
             for c in 0..n_primal {
                 for p in self.a_colptr[c]..self.a_colptr[c + 1] {
                     b[self.a_rowval[p]] -= nz[p] * zbar[c];
                 }
+            }
+            // Rows linearised at z̄ have their right-hand sides directly in deviation form:
+            // dynamics `… = x̄_{k+1} − x_prop_k` (the defect), inequalities `∇g·Δz − ν ≤ −g(z̄)`,
+            // cones `[r + ν; g(z̄) + ∇g·Δz]`.
+            b[..(nn - 1) * n].copy_from_slice(&dbar.defect);
+            for nr in &self.nodal_rows {
+                let g = ev.values[self.g_offsets[nr.eval].0 + nr.output];
+                b[nr.row] = if nr.cone { g } else { -g };
             }
             q.fill(0.0);
             for k in 0..nn - 1 {
