@@ -7,38 +7,36 @@
 #[path = "../tests/seed/mod.rs"]
 mod seed;
 
-use armature_scvx::{Ptr, PtrSettings};
+use armature_scvx::{IterationTable, Ptr, PtrSettings};
 
 fn main() {
     let s = seed::build();
     let t0 = std::time::Instant::now();
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     let built = t0.elapsed();
-    let r = ptr.solve(&s.x, &s.u, &s.s).expect("sizes match");
+    let mut out = std::io::stdout().lock();
+    IterationTable::header(&mut out).expect("stdout");
+    let r = ptr
+        .solve_with(&s.x, &s.u, &s.s, |it, _| IterationTable::row(&mut out, it).expect("stdout"))
+        .expect("sizes match");
     let solved = t0.elapsed() - built;
-    println!("iter  acc   J_tr      J_vc      defect    violation  t_f      λ_tr");
-    for h in &r.history {
-        println!(
-            "{:4}  {:5} {:.2e}  {:.2e}  {:.2e}  {:.2e}   {:.4}  {:.1e}",
-            h.iteration,
-            h.accepted,
-            h.j_tr,
-            h.j_vc,
-            h.max_defect,
-            h.max_violation,
-            h.final_time,
-            h.lam_tr
-        );
-    }
     let c = seed::check(&s, &r);
     println!(
-        "{:?} after {} iterations: T = {:.4} s (pattern {:.1} ms, solve {:.1} ms)",
+        "{:?} after {} iterations: T = {:.4} s (pattern {:.1} ms, solve {:.1} ms: discretization {:.1} ms, subproblems {:.1} ms)",
         r.status,
         r.history.len(),
         r.final_time,
         built.as_secs_f64() * 1e3,
-        solved.as_secs_f64() * 1e3
+        solved.as_secs_f64() * 1e3,
+        r.timings.discretization_ms,
+        r.timings.subproblem_ms
     );
+    if let Some(v) = &r.max_violation {
+        println!(
+            "largest remaining violation: {} = {:.2e} at node {:?}",
+            v.constraint, v.value, v.node
+        );
+    }
     println!(
         "dense ({} samples): joint {:.1e}, velocity {:.1e}, table {:.1e}; nodes: waypoint {:.4} m, orientation {:.3}° / {:.4}°",
         c.samples,

@@ -23,18 +23,21 @@
 //! `∂f/∂x` is applied through the symbolic Jacobian's CSC pattern (computed once), so the
 //! seed's `angle' = velocity` block costs one multiply-add per row, not n.
 
-use armature_symbolic::{Expr, Function, SymbolicError, Workspace};
+use armature_symbolic::{Expr, Function, SparsityPattern, SymbolicError, Workspace};
 
 /// Integrator settings.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct DiscretizationSettings {
     /// RK4 steps per segment. Default 10.
     pub substeps: usize,
+    /// Integrate segments concurrently on the rayon pool, one lane of segments per worker
+    /// thread (segments are independent). Default true.
+    pub parallel: bool,
 }
 
 impl Default for DiscretizationSettings {
     fn default() -> Self {
-        DiscretizationSettings { substeps: 10 }
+        DiscretizationSettings { substeps: 10, parallel: true }
     }
 }
 
@@ -51,6 +54,10 @@ pub struct Dynamics {
     /// `(state row, first segment, end segment)`: the row's dynamics are active only on
     /// segments `first..end` (CTCS intervals); elsewhere the row is held constant.
     gates: Vec<(usize, usize, usize)>,
+    /// Structural pattern of `[A | B_u | b_s]` (see [`Dynamics::transition_pattern`]).
+    transition: SparsityPattern,
+    /// Name of each scalar state row (`angle[3]`, `_ctcs_0`).
+    state_names: Vec<String>,
 }
 
 /// The discretized problem around one trajectory: per segment k = 0..N−2, row-major
@@ -72,9 +79,16 @@ pub struct Discretization {
     pub defect: Vec<f64>,
 }
 
-/// Preallocated integrator scratch (no allocation per discretization).
+/// Preallocated integrator scratch (no allocation per discretization): one lane per rayon
+/// worker thread (at creation), each integrating a contiguous run of segments.
 #[derive(Debug, Clone)]
 pub struct DiscretizationWorkspace {
+    lanes: Vec<Lane>,
+}
+
+/// One lane's scratch.
+#[derive(Debug, Clone)]
+struct Lane {
     fws: Workspace,
     input: Vec<f64>,
     fval: Vec<f64>,
@@ -82,6 +96,38 @@ pub struct DiscretizationWorkspace {
     v: Vec<f64>,
     k: [Vec<f64>; 4],
     tmp: Vec<f64>,
+}
+
+/// One lane's share of a [`Discretization`]: its first segment and its output slices.
+struct LaneOut<'a> {
+    first: usize,
+    a: &'a mut [f64],
+    b_minus: &'a mut [f64],
+    b_plus: &'a mut [f64],
+    x_prop: &'a mut [f64],
+    defect: &'a mut [f64],
+}
+
+impl<'a> LaneOut<'a> {
+    /// Splits off the first `segs` segments (`n`, `m` = state and control + 1 sizes).
+    fn split(self, segs: usize, n: usize, m: usize) -> (LaneOut<'a>, LaneOut<'a>) {
+        let (a, a2) = self.a.split_at_mut(segs * n * n);
+        let (bm, bm2) = self.b_minus.split_at_mut(segs * n * m);
+        let (bp, bp2) = self.b_plus.split_at_mut(segs * n * m);
+        let (xp, xp2) = self.x_prop.split_at_mut(segs * n);
+        let (d, d2) = self.defect.split_at_mut(segs * n);
+        (
+            LaneOut { first: self.first, a, b_minus: bm, b_plus: bp, x_prop: xp, defect: d },
+            LaneOut {
+                first: self.first + segs,
+                a: a2,
+                b_minus: bm2,
+                b_plus: bp2,
+                x_prop: xp2,
+                defect: d2,
+            },
+        )
+    }
 }
 
 /// Errors of the discretization.
@@ -93,6 +139,48 @@ pub enum DiscretizationError {
     /// Sizes that do not fit.
     #[error("{0}")]
     Size(String),
+}
+
+/// Reachability closure of `∂f/∂x` (see [`Dynamics::transition_pattern`]).
+fn transition_pattern(jac: &SparsityPattern, n: usize, mu: usize) -> SparsityPattern {
+    // reach[r·n + j]: state r is reachable from state j (Φ[r, j] may be nonzero).
+    let mut reach = vec![false; n * n];
+    for i in 0..n {
+        reach[i * n + i] = true;
+    }
+    let deps: Vec<(usize, usize)> = jac.entries().filter(|&(_, c)| c < n).collect();
+    // Φ' = AΦ: Φ[r, c] gains entries from Φ[j, c] for every dependency (r, j); iterate to the
+    // fixed point (at most n rounds).
+    loop {
+        let mut changed = false;
+        for &(r, j) in &deps {
+            for c in 0..n {
+                if reach[j * n + c] && !reach[r * n + c] {
+                    reach[r * n + c] = true;
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut entries = Vec::new();
+    for r in 0..n {
+        for j in 0..n {
+            if reach[r * n + j] {
+                entries.push((r, j));
+            }
+        }
+        for i in 0..mu {
+            let direct = |row: usize| jac.contains(row, n + i);
+            if (0..n).any(|j| reach[r * n + j] && direct(j)) {
+                entries.push((r, n + i));
+            }
+        }
+        entries.push((r, n + mu));
+    }
+    SparsityPattern::from_entries(n, n + mu + 1, &entries)
 }
 
 impl Dynamics {
@@ -124,7 +212,19 @@ impl Dynamics {
             )));
         }
         let p = f.jacobian_pattern();
+        let transition = transition_pattern(p, n_x, n_u);
+        let mut state_names = Vec::with_capacity(n_x);
+        for (g, e) in states.iter().enumerate() {
+            let name = e.leaf_name().map_or_else(|| format!("state {g}"), str::to_owned);
+            let len = e.shape()?.numel();
+            if len == 1 {
+                state_names.push(name);
+            } else {
+                state_names.extend((0..len).map(|i| format!("{name}[{i}]")));
+            }
+        }
         Ok(Dynamics {
+            state_names,
             n_x,
             n_u,
             foh: foh.to_vec(),
@@ -132,7 +232,24 @@ impl Dynamics {
             rows: p.row_idx().to_vec(),
             f,
             gates: Vec::new(),
+            transition,
         })
+    }
+
+    /// Structural sparsity of the discretized matrices, `n × (n + m + 1)` over the columns
+    /// `[x | u | s]`: entry `(r, j)` of `A_k = Φ` (j < n), of `B⁻_k`/`B⁺_k` (n ≤ j < n + m) and
+    /// of the dilation column (j = n + m) can be nonzero only where this pattern has it.
+    ///
+    /// `Φ(τ)` is a sum of products of `A = s·∂f/∂x`, so `Φ[r, j] ≠ 0` only if state `r` is
+    /// reachable from state `j` in the dependency graph of `∂f/∂x` (itself included); `B[r, i]`
+    /// only if `r` is reachable from a state whose derivative depends on control `i`; the
+    /// dilation column (`f` integrated through `Φ`) only if `r` is reachable from a row with
+    /// any dependence at all (every row is kept: a constant `f_r ≠ 0` has no dependence).
+    /// Entries outside the pattern stay exactly zero in [`discretize`](Self::discretize)'s
+    /// arithmetic, so the subproblem drops them. For the seed arm (angle' = velocity,
+    /// velocity' = τ/I, 4 CTCS rows) this keeps 194 of the 612 entries per segment.
+    pub fn transition_pattern(&self) -> &SparsityPattern {
+        &self.transition
     }
 
     /// Restricts state row `row`'s dynamics to segments `first..end` (a CTCS interval; the
@@ -156,6 +273,12 @@ impl Dynamics {
         Ok(self)
     }
 
+    /// Name of scalar state row `row`: the state variable's name, indexed for vectors
+    /// (`angle[3]`); `None` out of range.
+    pub fn state_name(&self, row: usize) -> Option<&str> {
+        self.state_names.get(row).map(String::as_str)
+    }
+
     /// State size n.
     pub fn n_x(&self) -> usize {
         self.n_x
@@ -171,11 +294,18 @@ impl Dynamics {
         &self.f
     }
 
-    /// Scratch for [`discretize`](Self::discretize).
+    /// Scratch for [`discretize`](Self::discretize): one lane per thread of the current
+    /// rayon pool.
     pub fn workspace(&self) -> DiscretizationWorkspace {
+        DiscretizationWorkspace {
+            lanes: (0..rayon::current_num_threads().max(1)).map(|_| self.lane()).collect(),
+        }
+    }
+
+    fn lane(&self) -> Lane {
         let (n, m) = (self.n_x, self.n_u + 1);
         let len = n + n * n + 2 * n * m;
-        DiscretizationWorkspace {
+        Lane {
             fws: self.f.workspace(),
             input: vec![0.0; n + self.n_u],
             fval: vec![0.0; n],
@@ -293,7 +423,7 @@ impl Dynamics {
             )));
         }
         let dtau = 1.0 / (nodes - 1) as f64;
-        let mut ws = self.workspace();
+        let mut ws = self.lane();
         let (mut times, mut states) = (vec![0.0], x0.to_vec());
         let mut x = x0.to_vec();
         let (mut k0, mut k1, mut k2, mut k3, mut tmp) =
@@ -306,7 +436,7 @@ impl Dynamics {
             let h = duration / steps as f64;
             let mut f =
                 |x: &[f64], beta: f64, out: &mut [f64]| -> Result<(), DiscretizationError> {
-                    let DiscretizationWorkspace { fws, input, fval, .. } = &mut ws;
+                    let Lane { fws, input, fval, .. } = &mut ws;
                     input[..n].copy_from_slice(x);
                     for i in 0..mu {
                         input[n + i] =
@@ -364,7 +494,6 @@ impl Dynamics {
         out: &mut Discretization,
     ) -> Result<(), DiscretizationError> {
         let (n, mu) = (self.n_x, self.n_u);
-        let m = mu + 1;
         let nodes = s.len();
         if nodes < 2
             || x.len() != nodes * n
@@ -382,12 +511,87 @@ impl Dynamics {
                 out.segments
             )));
         }
+        let segments = nodes - 1;
+        let lanes = if settings.parallel { ws.lanes.len().min(segments) } else { 1 };
+        let all = LaneOut {
+            first: 0,
+            a: &mut out.a,
+            b_minus: &mut out.b_minus,
+            b_plus: &mut out.b_plus,
+            x_prop: &mut out.x_prop,
+            defect: &mut out.defect,
+        };
+        self.discretize_lanes(x, u, s, settings.substeps, &mut ws.lanes[..lanes], segments, all)
+    }
+
+    /// Integrates `segments` segments into `out`, split evenly over `lanes`: the first lane
+    /// runs on the calling thread, the others are spawned on the rayon pool (one small
+    /// allocation per spawned lane; a `rayon::join` from outside the pool would queue both
+    /// halves behind a possibly sleeping worker).
+    #[allow(clippy::too_many_arguments)]
+    fn discretize_lanes(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+        substeps: usize,
+        lanes: &mut [Lane],
+        segments: usize,
+        out: LaneOut<'_>,
+    ) -> Result<(), DiscretizationError> {
+        let count = lanes.len();
+        let (first, rest) = lanes.split_first_mut().expect("at least one lane");
+        if rest.is_empty() {
+            return self.discretize_segments(x, u, s, substeps, first, segments, out);
+        }
+        let (n, m) = (self.n_x, self.n_u + 1);
+        let share = |i: usize| segments * (i + 1) / count - segments * i / count;
+        let (mine, mut others) = out.split(share(0), n, m);
+        let failed = std::sync::Mutex::new(None);
+        rayon::in_place_scope(|scope| {
+            for (i, lane) in rest.iter_mut().enumerate() {
+                let (part, tail) = others.split(share(i + 1), n, m);
+                others = tail;
+                let failed = &failed;
+                scope.spawn(move |_| {
+                    let r = self.discretize_segments(x, u, s, substeps, lane, share(i + 1), part);
+                    if let Err(e) = r {
+                        *failed.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                    }
+                });
+            }
+            if let Err(e) = self.discretize_segments(x, u, s, substeps, first, share(0), mine) {
+                *failed.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+            }
+        });
+        match failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// Integrates segments `out.first..out.first + count` with one lane's scratch.
+    #[allow(clippy::too_many_arguments)]
+    fn discretize_segments(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+        substeps: usize,
+        ws: &mut Lane,
+        count: usize,
+        out: LaneOut<'_>,
+    ) -> Result<(), DiscretizationError> {
+        let (n, mu) = (self.n_x, self.n_u);
+        let m = mu + 1;
+        let nodes = s.len();
         let dtau = 1.0 / (nodes - 1) as f64;
-        let h = dtau / settings.substeps as f64;
+        let h = dtau / substeps as f64;
         let len = ws.v.len();
-        let DiscretizationWorkspace { fws, input, fval, jac, v, k, tmp } = ws;
+        let Lane { fws, input, fval, jac, v, k, tmp } = ws;
         let [k0, k1, k2, k3] = k;
-        for seg in 0..nodes - 1 {
+        for local in 0..count {
+            let seg = out.first + local;
             let (uk, uk1) = (&u[seg * mu..(seg + 1) * mu], &u[(seg + 1) * mu..(seg + 2) * mu]);
             let sk = s[seg];
             v.fill(0.0);
@@ -395,10 +599,10 @@ impl Dynamics {
             for i in 0..n {
                 v[n + i * n + i] = 1.0;
             }
-            for step in 0..settings.substeps {
-                let b0 = step as f64 / settings.substeps as f64;
-                let bh = (step as f64 + 0.5) / settings.substeps as f64;
-                let b1 = (step as f64 + 1.0) / settings.substeps as f64;
+            for step in 0..substeps {
+                let b0 = step as f64 / substeps as f64;
+                let bh = (step as f64 + 0.5) / substeps as f64;
+                let b1 = (step as f64 + 1.0) / substeps as f64;
                 self.rhs(v, b0, uk, uk1, sk, seg, fws, input, fval, jac, k0)?;
                 for i in 0..len {
                     tmp[i] = v[i] + 0.5 * h * k0[i];
@@ -417,12 +621,12 @@ impl Dynamics {
                 }
             }
             let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * m);
-            out.x_prop[seg * n..(seg + 1) * n].copy_from_slice(&v[..n]);
-            out.a[seg * n * n..(seg + 1) * n * n].copy_from_slice(&v[phi0..phi0 + n * n]);
-            out.b_minus[seg * n * m..(seg + 1) * n * m].copy_from_slice(&v[bm0..bm0 + n * m]);
-            out.b_plus[seg * n * m..(seg + 1) * n * m].copy_from_slice(&v[bp0..bp0 + n * m]);
+            out.x_prop[local * n..(local + 1) * n].copy_from_slice(&v[..n]);
+            out.a[local * n * n..(local + 1) * n * n].copy_from_slice(&v[phi0..phi0 + n * n]);
+            out.b_minus[local * n * m..(local + 1) * n * m].copy_from_slice(&v[bm0..bm0 + n * m]);
+            out.b_plus[local * n * m..(local + 1) * n * m].copy_from_slice(&v[bp0..bp0 + n * m]);
             for i in 0..n {
-                out.defect[seg * n + i] = x[(seg + 1) * n + i] - v[i];
+                out.defect[local * n + i] = x[(seg + 1) * n + i] - v[i];
             }
         }
         Ok(())

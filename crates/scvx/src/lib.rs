@@ -10,6 +10,7 @@ pub use discretization::{
     Discretization, DiscretizationError, DiscretizationSettings, DiscretizationWorkspace, Dynamics,
 };
 pub use ptr::{
-    Iteration, NodalConstraint, NodalKind, Ocp, Ptr, PtrResult, PtrSettings, PtrStatus,
-    TrustRegionUpdate,
+    Iteration, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
+    PtrSettings, PtrStatus, SettingsError, SubproblemSettings, Timings, Trajectory,
+    TrustRegionUpdate, Violation,
 };

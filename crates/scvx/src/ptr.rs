@@ -40,9 +40,13 @@ use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SecondOrderConeT, SolverStatus,
     SupportedConeT, ZeroConeT,
 };
+use std::time::Instant;
+
 use serde::Serialize;
 
-use crate::{Discretization, DiscretizationSettings, DiscretizationWorkspace, Dynamics};
+use crate::{
+    Discretization, DiscretizationError, DiscretizationSettings, DiscretizationWorkspace, Dynamics,
+};
 
 /// The optimal control problem in dynamics form.
 #[derive(Debug, Clone)]
@@ -138,6 +142,112 @@ pub struct PtrSettings {
     pub max_iterations: usize,
     /// Integrator settings.
     pub discretization: DiscretizationSettings,
+    /// Settings of the convex subproblem solver (Clarabel).
+    pub subproblem: SubproblemSettings,
+}
+
+/// Settings of the interior-point solver of each convex subproblem (Clarabel); the rest of
+/// Clarabel's settings keep its defaults, except presolve, which is off so that data can be
+/// updated in place between iterations.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SubproblemSettings {
+    /// Absolute and relative duality-gap and feasibility tolerance. Default 1e-8 (Clarabel's).
+    pub tolerance: f64,
+    /// Tolerance (absolute and relative) of the iterative refinement of each KKT solve.
+    /// Default 1e-9: Clarabel's 1e-13 spends ~20 % of the seed solve refining directions
+    /// far below what the tolerance above can use, for the same iterates.
+    pub refinement_tolerance: f64,
+    /// Interior-point iteration cap. Default 200.
+    pub max_iterations: u32,
+    /// Clarabel's Ruiz equilibration. Default on.
+    pub equilibrate: bool,
+}
+
+impl Default for SubproblemSettings {
+    fn default() -> Self {
+        SubproblemSettings {
+            tolerance: 1e-8,
+            refinement_tolerance: 1e-9,
+            max_iterations: 200,
+            equilibrate: true,
+        }
+    }
+}
+
+impl SubproblemSettings {
+    fn clarabel(&self) -> DefaultSettings<f64> {
+        DefaultSettings {
+            verbose: false,
+            presolve_enable: false,
+            max_iter: self.max_iterations,
+            tol_gap_abs: self.tolerance,
+            tol_gap_rel: self.tolerance,
+            tol_feas: self.tolerance,
+            iterative_refinement_reltol: self.refinement_tolerance,
+            iterative_refinement_abstol: self.refinement_tolerance,
+            equilibrate_enable: self.equilibrate,
+            ..DefaultSettings::default()
+        }
+    }
+}
+
+/// A setting that cannot be used, with the field and the reason.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("PTR setting `{field}` {reason}")]
+pub struct SettingsError {
+    /// The field.
+    pub field: &'static str,
+    /// Why.
+    pub reason: &'static str,
+}
+
+impl PtrSettings {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`SettingsError`] naming the first unusable field.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let positive = [
+            ("lam_tr", self.lam_tr),
+            ("lam_tr_min", self.lam_tr_min),
+            ("lam_tr_max", self.lam_tr_max),
+            ("lam_vc", self.lam_vc),
+            ("lam_vc_max", self.lam_vc_max),
+            ("lam_vb", self.lam_vb),
+            ("eps_vb", self.eps_vb),
+            ("eps_tr", self.eps_tr),
+            ("eps_defect", self.eps_defect),
+            ("subproblem.tolerance", self.subproblem.tolerance),
+            ("subproblem.refinement_tolerance", self.subproblem.refinement_tolerance),
+        ];
+        for (field, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SettingsError { field, reason: "must be a positive finite number" });
+            }
+        }
+        let bad = |field, reason| Err(SettingsError { field, reason });
+        if !(self.lam_tr_min <= self.lam_tr && self.lam_tr <= self.lam_tr_max) {
+            return bad("lam_tr", "must lie between lam_tr_min and lam_tr_max");
+        }
+        if self.lam_vc > self.lam_vc_max || self.lam_vb > self.lam_vc_max {
+            return bad("lam_vc_max", "must be at least lam_vc and lam_vb");
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations", "must be at least 1");
+        }
+        if self.subproblem.max_iterations == 0 {
+            return bad("subproblem.max_iterations", "must be at least 1");
+        }
+        if self.discretization.substeps == 0 {
+            return bad("discretization.substeps", "must be at least 1");
+        }
+        if let TrustRegionUpdate::Adaptive { eta } = self.trust_region
+            && !(eta.iter().all(|e| e.is_finite()) && eta[0] <= eta[1] && eta[1] <= eta[2])
+        {
+            return bad("trust_region.eta", "must be finite and non-decreasing");
+        }
+        Ok(())
+    }
 }
 
 impl Default for PtrSettings {
@@ -155,6 +265,7 @@ impl Default for PtrSettings {
             trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.5] },
             max_iterations: 100,
             discretization: DiscretizationSettings::default(),
+            subproblem: SubproblemSettings::default(),
         }
     }
 }
@@ -198,10 +309,14 @@ pub struct Iteration {
     pub iteration: usize,
     /// Whether the step was accepted.
     pub accepted: bool,
+    /// Cost of the candidate (time weight × final time).
+    pub cost: f64,
     /// ‖Δz‖² of the step (scaled variables).
     pub j_tr: f64,
-    /// Σ|ν| of the subproblem.
+    /// Σ|ν| of the subproblem (virtual control).
     pub j_vc: f64,
+    /// Σ max(0, ν_b) of the subproblem (virtual buffers of nodal constraints).
+    pub j_vb: f64,
     /// Largest nonlinear defect of the candidate.
     pub max_defect: f64,
     /// Largest nodal-constraint violation of the candidate.
@@ -212,9 +327,19 @@ pub struct Iteration {
     pub rho: f64,
     /// λ_tr used.
     pub lam_tr: f64,
+    /// Wall time of the candidate's discretization (ms).
+    pub discretization_ms: f64,
+    /// Wall time of the subproblem: data update (or setup) and solve (ms).
+    pub subproblem_ms: f64,
+    /// Interior-point iterations of the subproblem.
+    pub subproblem_iterations: u32,
+    /// Clarabel's status of the subproblem (`Solved`, `AlmostSolved`, …).
+    pub subproblem_status: String,
+    /// Set on the final iteration: how the solve ended.
+    pub status: Option<PtrStatus>,
 }
 
-/// The outcome: the last accepted trajectory and the history.
+/// The outcome: the last accepted trajectory, its violations and the history.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PtrResult {
     /// How it ended.
@@ -229,6 +354,14 @@ pub struct PtrResult {
     pub final_time: f64,
     /// Per-iteration records.
     pub history: Vec<Iteration>,
+    /// Largest violation of every constraint at the returned trajectory: the dynamics of
+    /// each state row, then each nodal constraint in definition order.
+    pub violations: Vec<Violation>,
+    /// The largest positive entry of `violations`, if any: what a non-converged solve
+    /// still violates, and where.
+    pub max_violation: Option<Violation>,
+    /// Wall-clock totals.
+    pub timings: Timings,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -288,6 +421,8 @@ pub struct Ptr {
     buffers: Vec<(usize, usize, Option<usize>)>,
     /// Sizes of the second-order cones (after the nonnegative rows).
     socs: Vec<usize>,
+    /// The running (or last) solve.
+    state: Option<Box<Iterate>>,
 }
 
 impl Ptr {
@@ -331,14 +466,16 @@ impl Ptr {
         let mut trip: Vec<(usize, usize, Source)> = Vec::new();
         let mut b = Vec::new();
         let mut row = 0;
-        // Dynamics rows: A x_k − x_{k+1} + B⁻[u_k; s_k] + B⁺ u_{k+1} + ν⁺ − ν⁻ = −c_k.
+        // Dynamics rows: A x_k − x_{k+1} + B⁻[u_k; s_k] + B⁺ u_{k+1} + ν⁺ − ν⁻ = −c_k, with
+        // only the structurally nonzero entries of A and B± (the transition pattern).
+        let tp = ocp.dynamics.transition_pattern();
         for k in 0..nn - 1 {
             for r in 0..n {
-                for j in 0..n {
+                for j in (0..n).filter(|&j| tp.contains(r, j)) {
                     trip.push((row, x0 + k * n + j, Source::A(k * n * n + r * n + j)));
                 }
                 trip.push((row, x0 + (k + 1) * n + r, Source::Const(-1.0)));
-                for i in 0..m {
+                for i in (0..m).filter(|&i| tp.contains(r, n + i)) {
                     trip.push((row, u0 + k * m + i, Source::Bm(k * n * mc + r * mc + i)));
                     trip.push((row, u0 + (k + 1) * m + i, Source::Bp(k * n * mc + r * mc + i)));
                 }
@@ -505,6 +642,7 @@ impl Ptr {
             g_len: (gv, gj),
             buffers,
             socs,
+            state: None,
         }
     }
 
@@ -571,53 +709,186 @@ impl Ptr {
         (self.ocp.time_weight * tf + l1 + viol, tf, max, max_viol)
     }
 
-    /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N).
+    /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N) to the end: [`start`](Self::start),
+    /// then [`step`](Self::step) until a step reports a final status.
     ///
     /// # Errors
-    /// Guesses of the wrong size, or a dynamics evaluation error.
-    pub fn solve(
+    /// Unusable settings, guesses of the wrong size or not finite, a dynamics evaluation
+    /// error. Solver outcomes (not converged, infeasible subproblem) are data in the result.
+    pub fn solve(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<PtrResult, PtrError> {
+        self.solve_with(x, u, s, |_, _| {})
+    }
+
+    /// Like [`solve`](Self::solve), calling `observer` after every iteration with its record
+    /// and the current reference trajectory (the last accepted one): the hook through which
+    /// progress is printed ([`IterationTable`]) or streamed.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_with(
         &mut self,
         x: &[f64],
         u: &[f64],
         s: &[f64],
-    ) -> Result<PtrResult, crate::DiscretizationError> {
+        mut observer: impl FnMut(&Iteration, &Trajectory<'_>),
+    ) -> Result<PtrResult, PtrError> {
+        self.start(x, u, s)?;
+        loop {
+            let it = self.step()?;
+            if let Some(t) = self.trajectory() {
+                observer(&it, &t);
+            }
+            if it.status.is_some() {
+                break;
+            }
+        }
+        self.result().ok_or(PtrError::NotRunning)
+    }
+
+    /// Sets the reference to the guess `(x, u, s)` (N×n, N×m, N), discretizes it and resets
+    /// the weights and the history; [`step`](Self::step) then iterates. Reuses every buffer
+    /// (and the subproblem solver) of an earlier solve of this `Ptr`.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
+        self.settings.validate()?;
+        let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
+            if v.len() != len {
+                return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
+            }
+            if let Some(index) = v.iter().position(|v| !v.is_finite()) {
+                return Err(PtrError::GuessNotFinite { what, index });
+            }
+        }
+        let mut st = match self.state.take() {
+            Some(st) => st,
+            None => Box::new(self.iterate()),
+        };
+        st.xb.copy_from_slice(x);
+        st.ub.copy_from_slice(u);
+        st.sb.copy_from_slice(s);
+        let t0 = Instant::now();
+        let disc = self.ocp.dynamics.discretize(
+            x,
+            u,
+            s,
+            &self.settings.discretization,
+            &mut self.dws,
+            &mut st.dbar,
+        );
+        st.timings =
+            Timings { discretization_ms: t0.elapsed().as_secs_f64() * 1e3, ..Timings::default() };
+        disc?;
+        st.lam_vc.fill(self.settings.lam_vc);
+        st.lam_vb.fill(self.settings.lam_vb);
+        st.lam_tr = self.settings.lam_tr;
+        st.history.clear();
+        st.status = None;
+        (st.jbar, st.tf, _, _) =
+            self.merit(x, u, s, &st.dbar, &mut st.ev, (&st.lam_vc, &st.lam_vb));
+        self.state = Some(st);
+        Ok(())
+    }
+
+    /// One PTR iteration: linearize at the reference, solve the convex subproblem, accept or
+    /// reject the candidate, update the weights. The record's `status` is set on the final
+    /// iteration (converged, iteration cap, stalled, subproblem infeasible or failed).
+    ///
+    /// # Errors
+    /// [`PtrError::NotRunning`] before [`start`](Self::start) or after a final iteration; a
+    /// dynamics evaluation error.
+    pub fn step(&mut self) -> Result<Iteration, PtrError> {
+        let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
+        let out =
+            if st.status.is_some() { Err(PtrError::NotRunning) } else { self.step_in(&mut st) };
+        self.state = Some(st);
+        out
+    }
+
+    /// The current reference trajectory (the last accepted one), once started.
+    pub fn trajectory(&self) -> Option<Trajectory<'_>> {
+        self.state.as_ref().map(|st| Trajectory {
+            nodes: self.ocp.nodes,
+            x: &st.xb,
+            u: &st.ub,
+            s: &st.sb,
+            final_time: st.tf,
+        })
+    }
+
+    /// The result so far: the reference trajectory, its constraint violations, the history
+    /// and the status (`MaxIterations` while still running).
+    pub fn result(&mut self) -> Option<PtrResult> {
+        let mut st = self.state.take()?;
+        let violations = self.violations(&mut st);
+        let max_violation = violations
+            .iter()
+            .filter(|v| v.value > 0.0)
+            .max_by(|a, b| a.value.total_cmp(&b.value))
+            .cloned();
+        let r = PtrResult {
+            status: st.status.unwrap_or(PtrStatus::MaxIterations),
+            x: st.xb.clone(),
+            u: st.ub.clone(),
+            s: st.sb.clone(),
+            final_time: st.tf,
+            history: st.history.clone(),
+            violations,
+            max_violation,
+            timings: st.timings,
+        };
+        self.state = Some(st);
+        Some(r)
+    }
+
+    /// Largest violation of each constraint at the reference: the dynamics defect of each
+    /// state row (over its segments) and each nodal constraint (over its nodes).
+    fn violations(&self, st: &mut Iterate) -> Vec<Violation> {
+        let (n, nn) = (self.ocp.dynamics.n_x(), self.ocp.nodes);
+        let mut out = Vec::new();
+        for r in 0..n {
+            let (k, d) = (0..nn - 1)
+                .map(|k| (k, st.dbar.defect[k * n + r].abs()))
+                .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            out.push(Violation {
+                constraint: format!(
+                    "dynamics of {}",
+                    self.ocp.dynamics.state_name(r).unwrap_or("state")
+                ),
+                value: d,
+                node: Some(k),
+            });
+        }
+        let zeros = vec![0.0; st.lam_vb.len()];
+        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &zeros);
+        let mut i = 0;
+        for c in &self.ocp.nodal {
+            let per_node = match c.kind {
+                NodalKind::Inequality => c.function.n_outputs(),
+                NodalKind::Ball { .. } => 1,
+            };
+            let mut worst = Violation { constraint: c.name.clone(), value: 0.0, node: None };
+            for &k in &c.nodes {
+                for _ in 0..per_node {
+                    if st.ev.violation[i] > worst.value || worst.node.is_none() {
+                        worst.value = worst.value.max(st.ev.violation[i]);
+                        worst.node = Some(k);
+                    }
+                    i += 1;
+                }
+            }
+            out.push(worst);
+        }
+        out
+    }
+
+    /// Buffers and subproblem data of a solve (allocated once per `Ptr`).
+    fn iterate(&self) -> Iterate {
         let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
         let (u0, s0, vp0, _) = self.layout();
-        let nv = self.n_vars;
-        let set = self.settings.clone();
-        let (mut xb, mut ub, mut sb) = (x.to_vec(), u.to_vec(), s.to_vec());
-        let mut dbar = self.ocp.dynamics.output(nn);
-        self.ocp.dynamics.discretize(
-            &xb,
-            &ub,
-            &sb,
-            &set.discretization,
-            &mut self.dws,
-            &mut dbar,
-        )?;
-        let mut dcand = self.ocp.dynamics.output(nn);
-        let mut ev = NodalEval {
-            ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
-            input: vec![0.0; n + m],
-            values: vec![0.0; self.g_len.0],
-            jac: vec![0.0; self.g_len.1],
-            violation: vec![0.0; self.buffers.len()],
-        };
-        let mut lam_vc = vec![set.lam_vc; n];
-        let mut lam_vb = vec![set.lam_vb; self.buffers.len()];
-        let (mut jbar, mut tf, _, _) =
-            self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb));
-        let mut lam_tr = set.lam_tr;
-        let mut history = Vec::new();
-        let dtau = 1.0 / (nn - 1) as f64;
         let n_primal = vp0;
-        // P: 2λ_tr on the (x, u, s) diagonal; q and b refilled per iteration.
-        let p_colptr: Vec<usize> = (0..=self.n_vars).map(|c| c.min(n_primal)).collect();
-        let p_rowval: Vec<usize> = (0..n_primal).collect();
-        let mut q = vec![0.0; self.n_vars];
-        let mut zbar = vec![0.0; n_primal];
-        let mut zc = vec![0.0; n_primal];
-        let mut pvals = vec![0.0; n_primal];
         // Trust-region scale per variable: S = max(1, range/2) from its bounds (OpenSCvx's
         // affine scaling), so the region is measured in comparable units.
         let scale_of = |lo: f64, hi: f64| {
@@ -638,201 +909,430 @@ impl Ptr {
                 1.0 / (sc * sc)
             })
             .collect();
-        let mut nz = vec![0.0; self.a_rowval.len()];
-        let mut b = self.b.clone();
         let mut cones: Vec<SupportedConeT<f64>> =
             vec![ZeroConeT(self.n_zero), NonnegativeConeT(self.n_nonneg)];
         cones.extend(self.socs.iter().map(|&d| SecondOrderConeT(d)));
-        let settings = DefaultSettings::<f64> {
-            verbose: false,
-            presolve_enable: false,
-            ..DefaultSettings::default()
-        };
-        let mut solver: Option<DefaultSolver<f64>> = None;
-        let mut status = PtrStatus::MaxIterations;
-        for it in 1..=set.max_iterations {
-            // Values of this linearization.
-            self.eval_nodal(&xb, &ub, &mut ev, &lam_vb);
-            for (v, src) in nz.iter_mut().zip(&self.sources) {
-                *v = match *src {
-                    Source::Const(c) => c,
-                    Source::A(i) => dbar.a[i],
-                    Source::Bm(i) => dbar.b_minus[i],
-                    Source::Bp(i) => dbar.b_plus[i],
-                    Source::G(i) => ev.jac[i],
-                    Source::NegG(i) => -ev.jac[i],
-                };
-            }
-            // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
-            // the constant rows `A z ≤ b` become `A Δz ≤ b − A z̄`. The objective then carries
-            // no λ_tr‖z̄‖² offset, which at large λ_tr would swamp Clarabel's relative gap
-            // tolerance.
-            zbar[..u0].copy_from_slice(&xb);
-            zbar[u0..s0].copy_from_slice(&ub);
-            zbar[s0..vp0].copy_from_slice(&sb);
-            b.copy_from_slice(&self.b);
-            for c in 0..n_primal {
-                for p in self.a_colptr[c]..self.a_colptr[c + 1] {
-                    b[self.a_rowval[p]] -= nz[p] * zbar[c];
-                }
-            }
-            // Rows linearised at z̄ have their right-hand sides directly in deviation form:
-            // dynamics `… = x̄_{k+1} − x_prop_k` (the defect), inequalities `∇g·Δz − ν ≤ −g(z̄)`,
-            // cones `[r + ν; g(z̄) + ∇g·Δz]`.
-            b[..(nn - 1) * n].copy_from_slice(&dbar.defect);
-            for nr in &self.nodal_rows {
-                let g = ev.values[self.g_offsets[nr.eval].0 + nr.output];
-                b[nr.row] = if nr.cone { g } else { -g };
-            }
-            q.fill(0.0);
-            for k in 0..nn - 1 {
-                q[s0 + k] += self.ocp.time_weight * dtau;
-            }
-            for (i, qi) in q.iter_mut().enumerate().skip(vp0) {
-                *qi = if i < self.vb0 { lam_vc[(i - vp0) % n] } else { lam_vb[i - self.vb0] };
-            }
-            for (p, w) in pvals.iter_mut().zip(&inv_s2) {
-                *p = 2.0 * lam_tr * w;
-            }
-            // In-place update when the solver exists (same pattern); rebuild if that fails.
-            if let Some(sv) = solver.as_mut() {
-                let updated = sv.update_P(&pvals).is_ok()
-                    && sv.update_q(&q).is_ok()
-                    && sv.update_A(&nz).is_ok()
-                    && sv.update_b(&b).is_ok();
-                if !updated {
-                    solver = None;
-                }
-            }
-            if solver.is_none() {
-                let pm = CscMatrix::new(
-                    self.n_vars,
-                    self.n_vars,
-                    p_colptr.clone(),
-                    p_rowval.clone(),
-                    pvals.clone(),
-                );
-                let am = CscMatrix::new(
-                    b.len(),
-                    self.n_vars,
-                    self.a_colptr.clone(),
-                    self.a_rowval.clone(),
-                    nz.clone(),
-                );
-                solver = DefaultSolver::new(&pm, &q, &am, &b, &cones, settings.clone()).ok();
-            }
-            let Some(sv) = solver.as_mut() else {
-                status = PtrStatus::NumericalFailure;
-                break;
+        Iterate {
+            xb: vec![0.0; nn * n],
+            ub: vec![0.0; nn * m],
+            sb: vec![0.0; nn],
+            dbar: self.ocp.dynamics.output(nn),
+            dcand: self.ocp.dynamics.output(nn),
+            ev: NodalEval {
+                ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
+                input: vec![0.0; n + m],
+                values: vec![0.0; self.g_len.0],
+                jac: vec![0.0; self.g_len.1],
+                violation: vec![0.0; self.buffers.len()],
+            },
+            lam_vc: vec![0.0; n],
+            lam_vb: vec![0.0; self.buffers.len()],
+            lam_tr: 0.0,
+            jbar: 0.0,
+            tf: 0.0,
+            history: Vec::new(),
+            status: None,
+            timings: Timings::default(),
+            q: vec![0.0; self.n_vars],
+            zbar: vec![0.0; n_primal],
+            zc: vec![0.0; n_primal],
+            pvals: vec![0.0; n_primal],
+            inv_s2,
+            nz: vec![0.0; self.a_rowval.len()],
+            b: self.b.clone(),
+            cones,
+            solver: None,
+        }
+    }
+
+    fn step_in(&mut self, st: &mut Iterate) -> Result<Iteration, PtrError> {
+        let (n, nn) = (self.ocp.dynamics.n_x(), self.ocp.nodes);
+        let (u0, s0, vp0, _) = self.layout();
+        let nv = self.n_vars;
+        let n_primal = vp0;
+        let dtau = 1.0 / (nn - 1) as f64;
+        let it = st.history.len() + 1;
+        let set = &self.settings;
+        // Values of this linearization.
+        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb);
+        for (v, src) in st.nz.iter_mut().zip(&self.sources) {
+            *v = match *src {
+                Source::Const(c) => c,
+                Source::A(i) => st.dbar.a[i],
+                Source::Bm(i) => st.dbar.b_minus[i],
+                Source::Bp(i) => st.dbar.b_plus[i],
+                Source::G(i) => st.ev.jac[i],
+                Source::NegG(i) => -st.ev.jac[i],
             };
-            sv.solve();
-            match sv.solution.status {
-                SolverStatus::Solved | SolverStatus::AlmostSolved => {}
-                SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-                    status = PtrStatus::SubproblemInfeasible;
-                    break;
-                }
-                _ => {
-                    status = PtrStatus::NumericalFailure;
-                    break;
-                }
-            }
-            let z = &sv.solution.x;
-            for i in 0..n_primal {
-                zc[i] = zbar[i] + z[i];
-            }
-            let (xc, uc, sc) = (&zc[..u0], &zc[u0..s0], &zc[s0..vp0]);
-            let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
-            let vc_cost: f64 =
-                z[vp0..self.vb0].iter().enumerate().map(|(i, v)| lam_vc[i % n] * v.abs()).sum();
-            let vb_cost: f64 =
-                z[self.vb0..nv].iter().zip(&lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
-            let j_tr: f64 = (0..n_primal).map(|i| z[i] * z[i] * inv_s2[i]).sum();
-            self.ocp.dynamics.discretize(
-                xc,
-                uc,
-                sc,
-                &set.discretization,
-                &mut self.dws,
-                &mut dcand,
-            )?;
-            let (jc, tfc, max_defect, max_violation) =
-                self.merit(xc, uc, sc, &dcand, &mut ev, (&lam_vc, &lam_vb));
-            let predicted = jbar
-                - (self.ocp.time_weight * dtau * sc[..nn - 1].iter().sum::<f64>()
-                    + vc_cost
-                    + vb_cost);
-            let rho = if predicted.abs() > 1e-14 { (jbar - jc) / predicted } else { 1.0 };
-            let accept = match set.trust_region {
-                TrustRegionUpdate::Constant => true,
-                TrustRegionUpdate::Adaptive { eta } => rho >= eta[0] || predicted.abs() <= 1e-14,
-            };
-            history.push(Iteration {
-                iteration: it,
-                accepted: accept,
-                j_tr,
-                j_vc,
-                max_defect,
-                max_violation,
-                final_time: tfc,
-                rho,
-                lam_tr,
-            });
-            // Exact-penalty prices: the ℓ1 penalty is exact only above the constraint's
-            // multiplier, so a row whose subproblem bought virtual control (or a buffer) at
-            // this price is priced too low — double it. Nonlinear defects after a step are a
-            // curvature effect that shrinks with the step and does not raise prices (raising
-            // them there makes second-order defects dominate the merit and stalls the trust
-            // region: the Maratos effect).
-            let mut repriced = false;
-            let nseg = (nn - 1) * n;
-            for r in 0..n {
-                let used = (0..nn - 1)
-                    .map(|k| z[vp0 + k * n + r] + z[vp0 + nseg + k * n + r])
-                    .fold(0.0, f64::max);
-                if used > set.eps_defect && lam_vc[r] < set.lam_vc_max {
-                    lam_vc[r] = (lam_vc[r] * 2.0).min(set.lam_vc_max);
-                    repriced = true;
-                }
-            }
-            for (w, v) in lam_vb.iter_mut().zip(&z[self.vb0..nv]) {
-                if *v > set.eps_vb && *w < set.lam_vc_max {
-                    *w = (*w * 2.0).min(set.lam_vc_max);
-                    repriced = true;
-                }
-            }
-            if accept {
-                xb.copy_from_slice(xc);
-                ub.copy_from_slice(uc);
-                sb.copy_from_slice(sc);
-                std::mem::swap(&mut dbar, &mut dcand);
-                (jbar, tf) = (jc, tfc);
-                // Stationarity, not just a short step: the subproblem's optimality gives
-                // ‖∇L‖ ≈ 2λ_tr‖Δz‖, so a step kept short by a heavy trust region does not count.
-                let stationary = j_tr < set.eps_tr;
-                if stationary && max_defect < set.eps_defect && max_violation < set.eps_vb {
-                    status = PtrStatus::Converged;
-                    break;
-                }
-                if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
-                    if rho < eta[1] {
-                        lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
-                    } else if rho > eta[2] {
-                        lam_tr = (lam_tr * 0.5).max(set.lam_tr_min);
-                    }
-                }
-            } else {
-                if lam_tr >= set.lam_tr_max {
-                    status = PtrStatus::Stalled;
-                    break;
-                }
-                lam_tr = (lam_tr * 2.0).min(set.lam_tr_max);
-            }
-            // The reference merit under the (possibly new) prices, so ρ stays consistent.
-            if repriced {
-                jbar = self.merit(&xb, &ub, &sb, &dbar, &mut ev, (&lam_vc, &lam_vb)).0;
+        }
+        // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
+        // the constant rows `A z ≤ b` become `A Δz ≤ b − A z̄`. The objective then carries no
+        // λ_tr‖z̄‖² offset, which at large λ_tr would swamp Clarabel's relative gap tolerance.
+        st.zbar[..u0].copy_from_slice(&st.xb);
+        st.zbar[u0..s0].copy_from_slice(&st.ub);
+        st.zbar[s0..vp0].copy_from_slice(&st.sb);
+        st.b.copy_from_slice(&self.b);
+        for c in 0..n_primal {
+            for p in self.a_colptr[c]..self.a_colptr[c + 1] {
+                st.b[self.a_rowval[p]] -= st.nz[p] * st.zbar[c];
             }
         }
-        Ok(PtrResult { status, x: xb, u: ub, s: sb, final_time: tf, history })
+        // Rows linearised at z̄ have their right-hand sides directly in deviation form:
+        // dynamics `… = x̄_{k+1} − x_prop_k` (the defect), inequalities `∇g·Δz − ν ≤ −g(z̄)`,
+        // cones `[r + ν; g(z̄) + ∇g·Δz]`.
+        st.b[..(nn - 1) * n].copy_from_slice(&st.dbar.defect);
+        for nr in &self.nodal_rows {
+            let g = st.ev.values[self.g_offsets[nr.eval].0 + nr.output];
+            st.b[nr.row] = if nr.cone { g } else { -g };
+        }
+        st.q.fill(0.0);
+        for k in 0..nn - 1 {
+            st.q[s0 + k] += self.ocp.time_weight * dtau;
+        }
+        for (i, qi) in st.q.iter_mut().enumerate().skip(vp0) {
+            *qi = if i < self.vb0 { st.lam_vc[(i - vp0) % n] } else { st.lam_vb[i - self.vb0] };
+        }
+        for (p, w) in st.pvals.iter_mut().zip(&st.inv_s2) {
+            *p = 2.0 * st.lam_tr * w;
+        }
+        let t_sub = Instant::now();
+        // In-place update when the solver exists (same pattern); rebuild if that fails.
+        if let Some(sv) = st.solver.as_mut() {
+            let updated = sv.update_P(&st.pvals).is_ok()
+                && sv.update_q(&st.q).is_ok()
+                && sv.update_A(&st.nz).is_ok()
+                && sv.update_b(&st.b).is_ok();
+            if !updated {
+                st.solver = None;
+            }
+        }
+        if st.solver.is_none() {
+            let p_colptr: Vec<usize> = (0..=nv).map(|c| c.min(n_primal)).collect();
+            let pm = CscMatrix::new(nv, nv, p_colptr, (0..n_primal).collect(), st.pvals.clone());
+            let am = CscMatrix::new(
+                st.b.len(),
+                nv,
+                self.a_colptr.clone(),
+                self.a_rowval.clone(),
+                st.nz.clone(),
+            );
+            st.solver =
+                DefaultSolver::new(&pm, &st.q, &am, &st.b, &st.cones, set.subproblem.clarabel())
+                    .ok();
+        }
+        let mut record = Iteration {
+            iteration: it,
+            accepted: false,
+            cost: f64::NAN,
+            j_tr: f64::NAN,
+            j_vc: f64::NAN,
+            j_vb: f64::NAN,
+            max_defect: f64::NAN,
+            max_violation: f64::NAN,
+            final_time: st.tf,
+            rho: f64::NAN,
+            lam_tr: st.lam_tr,
+            discretization_ms: 0.0,
+            subproblem_ms: 0.0,
+            subproblem_iterations: 0,
+            subproblem_status: "setup failed".into(),
+            status: None,
+        };
+        let Some(sv) = st.solver.as_mut() else {
+            return Ok(self.finish(st, record, PtrStatus::NumericalFailure));
+        };
+        sv.solve();
+        record.subproblem_ms = t_sub.elapsed().as_secs_f64() * 1e3;
+        record.subproblem_iterations = sv.solution.iterations;
+        record.subproblem_status = format!("{:?}", sv.solution.status);
+        st.timings.subproblem_ms += record.subproblem_ms;
+        match sv.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                return Ok(self.finish(st, record, PtrStatus::SubproblemInfeasible));
+            }
+            _ => return Ok(self.finish(st, record, PtrStatus::NumericalFailure)),
+        }
+        let z = &sv.solution.x;
+        for i in 0..n_primal {
+            st.zc[i] = st.zbar[i] + z[i];
+        }
+        let (xc, uc, sc) = (&st.zc[..u0], &st.zc[u0..s0], &st.zc[s0..vp0]);
+        let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
+        let vc_cost: f64 =
+            z[vp0..self.vb0].iter().enumerate().map(|(i, v)| st.lam_vc[i % n] * v.abs()).sum();
+        let j_vb: f64 = z[self.vb0..nv].iter().map(|v| v.max(0.0)).sum();
+        let vb_cost: f64 =
+            z[self.vb0..nv].iter().zip(&st.lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
+        let j_tr: f64 = (0..n_primal).map(|i| z[i] * z[i] * st.inv_s2[i]).sum();
+        let t_disc = Instant::now();
+        self.ocp.dynamics.discretize(
+            xc,
+            uc,
+            sc,
+            &set.discretization,
+            &mut self.dws,
+            &mut st.dcand,
+        )?;
+        record.discretization_ms = t_disc.elapsed().as_secs_f64() * 1e3;
+        st.timings.discretization_ms += record.discretization_ms;
+        let (jc, tfc, max_defect, max_violation) =
+            self.merit(xc, uc, sc, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
+        let cost = self.ocp.time_weight * tfc;
+        let predicted = st.jbar - (cost + vc_cost + vb_cost);
+        let rho = if predicted.abs() > 1e-14 { (st.jbar - jc) / predicted } else { 1.0 };
+        let accept = match set.trust_region {
+            TrustRegionUpdate::Constant => true,
+            TrustRegionUpdate::Adaptive { eta } => rho >= eta[0] || predicted.abs() <= 1e-14,
+        };
+        record = Iteration {
+            accepted: accept,
+            cost,
+            j_tr,
+            j_vc,
+            j_vb,
+            max_defect,
+            max_violation,
+            final_time: tfc,
+            rho,
+            ..record
+        };
+        // Exact-penalty prices: the ℓ1 penalty is exact only above the constraint's
+        // multiplier, so a row whose subproblem bought virtual control (or a buffer) at this
+        // price is priced too low — double it. Nonlinear defects after a step are a curvature
+        // effect that shrinks with the step and does not raise prices (raising them there
+        // makes second-order defects dominate the merit and stalls the trust region: the
+        // Maratos effect).
+        let mut repriced = false;
+        let nseg = (nn - 1) * n;
+        for r in 0..n {
+            let used = (0..nn - 1)
+                .map(|k| z[vp0 + k * n + r] + z[vp0 + nseg + k * n + r])
+                .fold(0.0, f64::max);
+            if used > set.eps_defect && st.lam_vc[r] < set.lam_vc_max {
+                st.lam_vc[r] = (st.lam_vc[r] * 2.0).min(set.lam_vc_max);
+                repriced = true;
+            }
+        }
+        for (w, v) in st.lam_vb.iter_mut().zip(&z[self.vb0..nv]) {
+            if *v > set.eps_vb && *w < set.lam_vc_max {
+                *w = (*w * 2.0).min(set.lam_vc_max);
+                repriced = true;
+            }
+        }
+        if accept {
+            st.xb.copy_from_slice(&st.zc[..u0]);
+            st.ub.copy_from_slice(&st.zc[u0..s0]);
+            st.sb.copy_from_slice(&st.zc[s0..vp0]);
+            std::mem::swap(&mut st.dbar, &mut st.dcand);
+            (st.jbar, st.tf) = (jc, tfc);
+            // Stationarity, not just a short step: the subproblem's optimality gives
+            // ‖∇L‖ ≈ 2λ_tr‖Δz‖, so a step kept short by a heavy trust region does not count.
+            let stationary = j_tr < set.eps_tr;
+            if stationary && max_defect < set.eps_defect && max_violation < set.eps_vb {
+                return Ok(self.finish(st, record, PtrStatus::Converged));
+            }
+            if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
+                if rho < eta[1] {
+                    st.lam_tr = (st.lam_tr * 2.0).min(set.lam_tr_max);
+                } else if rho > eta[2] {
+                    st.lam_tr = (st.lam_tr * 0.5).max(set.lam_tr_min);
+                }
+            }
+        } else {
+            if st.lam_tr >= set.lam_tr_max {
+                return Ok(self.finish(st, record, PtrStatus::Stalled));
+            }
+            st.lam_tr = (st.lam_tr * 2.0).min(set.lam_tr_max);
+        }
+        // The reference merit under the (possibly new) prices, so ρ stays consistent.
+        if repriced {
+            st.jbar = self
+                .merit(&st.xb, &st.ub, &st.sb, &st.dbar, &mut st.ev, (&st.lam_vc, &st.lam_vb))
+                .0;
+        }
+        if it >= set.max_iterations {
+            return Ok(self.finish(st, record, PtrStatus::MaxIterations));
+        }
+        st.history.push(record.clone());
+        Ok(record)
+    }
+
+    /// Records the final iteration with its status.
+    fn finish(&self, st: &mut Iterate, mut record: Iteration, status: PtrStatus) -> Iteration {
+        record.status = Some(status);
+        st.status = Some(status);
+        st.history.push(record.clone());
+        record
+    }
+}
+
+/// The reference trajectory of a running solve (borrowed from the solver).
+#[derive(Debug, Clone, Copy)]
+pub struct Trajectory<'a> {
+    /// Number of nodes N.
+    pub nodes: usize,
+    /// States, N×n row-major.
+    pub x: &'a [f64],
+    /// Controls, N×m row-major.
+    pub u: &'a [f64],
+    /// Dilations, N.
+    pub s: &'a [f64],
+    /// Final time `Δτ·Σ_{k<N−1} s_k`.
+    pub final_time: f64,
+}
+
+/// Errors of [`Ptr`]: bad input, never solver outcomes (those are [`PtrStatus`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PtrError {
+    /// An unusable setting.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// A guess of the wrong length.
+    #[error("initial guess `{what}` has {got} entries, expected {expected}")]
+    GuessSize {
+        /// `x`, `u` or `s`.
+        what: &'static str,
+        /// N·n, N·m or N.
+        expected: usize,
+        /// What was given.
+        got: usize,
+    },
+    /// A guess entry that is NaN or infinite.
+    #[error("initial guess `{what}` entry {index} is not finite")]
+    GuessNotFinite {
+        /// `x`, `u` or `s`.
+        what: &'static str,
+        /// Flat index of the entry.
+        index: usize,
+    },
+    /// The dynamics could not be discretized.
+    #[error(transparent)]
+    Discretization(#[from] DiscretizationError),
+    /// [`Ptr::step`] before [`Ptr::start`] or after the final iteration.
+    #[error("no solve is running: call start() first (a finished solve takes no more steps)")]
+    NotRunning,
+}
+
+/// The largest violation of one constraint at a trajectory.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Violation {
+    /// The constraint's name (`dynamics of angle[2]`, a nodal constraint's name).
+    pub constraint: String,
+    /// Its largest violation (≥ 0; a dynamics defect in the state's units).
+    pub value: f64,
+    /// The node (for dynamics: the segment's first node) where it is largest.
+    pub node: Option<usize>,
+}
+
+/// Wall-clock totals of a solve (ms).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Timings {
+    /// All discretizations (the guess's and every candidate's).
+    pub discretization_ms: f64,
+    /// All convex subproblems (update or setup, and solve).
+    pub subproblem_ms: f64,
+}
+
+/// The SCvx iteration table (one header, one row per [`Iteration`]), to any writer.
+///
+/// ```
+/// use armature_scvx::IterationTable;
+/// let mut out = Vec::new();
+/// IterationTable::header(&mut out).unwrap();
+/// assert!(String::from_utf8(out).unwrap().contains("J_vc"));
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct IterationTable;
+
+impl IterationTable {
+    /// Writes the column headers.
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn header(w: &mut impl std::io::Write) -> std::io::Result<()> {
+        writeln!(
+            w,
+            "{:>4} {:>3} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
+            "iter",
+            "acc",
+            "disc ms",
+            "solve ms",
+            "cost",
+            "J_tr",
+            "J_vb",
+            "J_vc",
+            "defect",
+            "violation",
+            "λ_tr",
+            "ipm"
+        )
+    }
+
+    /// Writes one iteration's row (and its final status, if any, on the next line).
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn row(w: &mut impl std::io::Write, it: &Iteration) -> std::io::Result<()> {
+        writeln!(
+            w,
+            "{:>4} {:>3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
+            it.iteration,
+            if it.accepted { "yes" } else { "no" },
+            it.discretization_ms,
+            it.subproblem_ms,
+            it.cost,
+            it.j_tr,
+            it.j_vb,
+            it.j_vc,
+            it.max_defect,
+            it.max_violation,
+            it.lam_tr,
+            it.subproblem_iterations,
+            it.subproblem_status
+        )?;
+        if let Some(status) = it.status {
+            writeln!(w, "stopped: {status:?}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The state of a running solve: the reference, the weights and the subproblem's data and
+/// solver (kept between solves of the same [`Ptr`]).
+struct Iterate {
+    xb: Vec<f64>,
+    ub: Vec<f64>,
+    sb: Vec<f64>,
+    dbar: Discretization,
+    dcand: Discretization,
+    ev: NodalEval,
+    lam_vc: Vec<f64>,
+    lam_vb: Vec<f64>,
+    lam_tr: f64,
+    jbar: f64,
+    tf: f64,
+    history: Vec<Iteration>,
+    status: Option<PtrStatus>,
+    timings: Timings,
+    q: Vec<f64>,
+    zbar: Vec<f64>,
+    zc: Vec<f64>,
+    pvals: Vec<f64>,
+    inv_s2: Vec<f64>,
+    nz: Vec<f64>,
+    b: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+    solver: Option<DefaultSolver<f64>>,
+}
+
+impl std::fmt::Debug for Iterate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Iterate")
+            .field("iteration", &self.history.len())
+            .field("status", &self.status)
+            .field("final_time", &self.tf)
+            .field("lam_tr", &self.lam_tr)
+            .finish_non_exhaustive()
     }
 }

@@ -80,7 +80,8 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
             let ue = uk + t * (r.u[k + 1] - uk);
             let xs = [r.x[3 * k], r.x[3 * k + 1], r.x[3 * k + 2], 0.0, 0.0, 0.0];
             let mut out = fine.output(2);
-            let settings = armature_scvx::DiscretizationSettings { substeps: 4 };
+            let settings =
+                armature_scvx::DiscretizationSettings { substeps: 4, ..Default::default() };
             fine.discretize(
                 &xs,
                 &[uk, ue],

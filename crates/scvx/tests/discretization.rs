@@ -105,7 +105,15 @@ fn double_integrator_is_exact() {
     for substeps in [1, 4] {
         let mut ws = d.workspace();
         let mut out = d.output(nodes);
-        d.discretize(&x, &u, &s, &DiscretizationSettings { substeps }, &mut ws, &mut out).unwrap();
+        d.discretize(
+            &x,
+            &u,
+            &s,
+            &DiscretizationSettings { substeps, ..Default::default() },
+            &mut ws,
+            &mut out,
+        )
+        .unwrap();
         // Segment 0: duration T = s·Δτ = 1, acceleration linear from 1 to −2.
         let (t, a0, a1) = (2.0 * 0.5, 1.0, -2.0);
         let v_end = -0.2 + a0 * t + (a1 - a0) * t / 2.0;
@@ -145,4 +153,91 @@ fn size_errors_are_reported() {
         Dynamics::new(&[x.clone()], &[u.clone()], &[x.clone()], &[true, false]).is_err(),
         "mask length"
     );
+}
+
+/// A system with structural zeros: a double integrator beside a decoupled scalar
+/// `z' = z·w` (the integrator never sees `z` or `w`, `z` never sees the integrator).
+fn block_diagonal() -> Dynamics {
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let z = Expr::variable("z", 1);
+    let a = Expr::variable("a", 1);
+    let w = Expr::variable("w", 1);
+    let rhs = [v.clone(), a.clone(), &z * &w];
+    Dynamics::new(&[p, v, z], &[a, w], &rhs, &[true, true]).unwrap()
+}
+
+#[test]
+fn transition_pattern_is_the_reachability_of_the_jacobian() {
+    let d = block_diagonal();
+    let tp = d.transition_pattern();
+    assert_eq!((tp.nrows(), tp.ncols()), (3, 3 + 2 + 1));
+    // Columns [p v z | a w | s]: p is reached from p, v and a; v from v and a; z from z, w.
+    let expected: &[(usize, usize)] =
+        &[(0, 0), (0, 1), (0, 3), (0, 5), (1, 1), (1, 3), (1, 5), (2, 2), (2, 4), (2, 5)];
+    let got: Vec<(usize, usize)> = {
+        let mut e: Vec<_> = tp.entries().collect();
+        e.sort();
+        e
+    };
+    assert_eq!(got, expected);
+    assert_eq!(d.state_name(2), Some("z"));
+    assert_eq!(d.state_name(3), None);
+}
+
+#[test]
+fn discretized_entries_outside_the_pattern_are_exactly_zero() {
+    for d in [block_diagonal(), nonlinear()] {
+        let (n, mu) = (d.n_x(), d.n_u());
+        let m = mu + 1;
+        let nodes = 5;
+        let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 0.91).cos()).collect();
+        let s = vec![1.3; nodes];
+        let mut ws = d.workspace();
+        let mut out = d.output(nodes);
+        d.discretize(&x, &u, &s, &DiscretizationSettings::default(), &mut ws, &mut out).unwrap();
+        let tp = d.transition_pattern();
+        let mut nonzero_outside = 0;
+        for k in 0..nodes - 1 {
+            for r in 0..n {
+                for j in 0..n {
+                    if !tp.contains(r, j) && out.a[k * n * n + r * n + j] != 0.0 {
+                        nonzero_outside += 1;
+                    }
+                }
+                for c in 0..m {
+                    let inside = tp.contains(r, n + c);
+                    let (bm, bp) =
+                        (out.b_minus[k * n * m + r * m + c], out.b_plus[k * n * m + r * m + c]);
+                    if !inside && (bm != 0.0 || bp != 0.0) {
+                        nonzero_outside += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(nonzero_outside, 0);
+    }
+    // The block-diagonal system really has zeros to drop.
+    assert_eq!(block_diagonal().transition_pattern().nnz(), 10);
+}
+
+#[test]
+fn parallel_and_serial_discretization_agree_bitwise() {
+    let d = nonlinear();
+    let (n, mu) = (3, 2);
+    for nodes in [2, 3, 7, 12] {
+        let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.53).cos()).collect();
+        let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 0.29).sin()).collect();
+        let s: Vec<f64> = (0..nodes).map(|k| 1.0 + 0.1 * k as f64).collect();
+        let mut outs = Vec::new();
+        for parallel in [false, true] {
+            let settings = DiscretizationSettings { parallel, ..Default::default() };
+            let mut ws = d.workspace();
+            let mut out = d.output(nodes);
+            d.discretize(&x, &u, &s, &settings, &mut ws, &mut out).unwrap();
+            outs.push(out);
+        }
+        assert_eq!(outs[0], outs[1], "{nodes} nodes");
+    }
 }

@@ -1,0 +1,152 @@
+//! The step API, the observer hook, the iteration table and outcomes as data, on the
+//! minimum-time double integrator.
+
+use armature_scvx::{
+    Dynamics, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings,
+    PtrStatus, TrustRegionUpdate,
+};
+
+/// The published PTR (constant trust region, heavy virtual-control price), as in
+/// `min_time.rs`: the defaults are tuned on the seed arm.
+fn settings() -> PtrSettings {
+    PtrSettings {
+        trust_region: TrustRegionUpdate::Constant,
+        lam_vc: 1e2,
+        eps_tr: 1e-4,
+        ..PtrSettings::default()
+    }
+}
+use armature_symbolic::{Expr, Function};
+
+fn problem(nodes: usize) -> Ocp {
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let a = Expr::variable("a", 1);
+    let dynamics =
+        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
+            .unwrap();
+    // At the middle node, position at least 0.6 (nonconvex only in form: `0.6 − p ≤ 0`).
+    let args = [vec![p.clone(), v], vec![a]];
+    let g = Function::compile(&[Expr::scalar(0.6) - &p], &[&args[0], &args[1]]).unwrap();
+    Ocp {
+        dynamics,
+        nodes,
+        x_min: vec![-10.0, -10.0],
+        x_max: vec![10.0, 10.0],
+        u_min: vec![-1.0],
+        u_max: vec![1.0],
+        x_initial: vec![Some(0.0), Some(0.0)],
+        x_final: vec![Some(1.0), Some(0.0)],
+        s_min: 0.1,
+        s_max: 10.0,
+        final_time: (0.0, f64::INFINITY),
+        time_weight: 1.0,
+        increments: vec![],
+        nodal: vec![NodalConstraint {
+            name: "past 0.6 at mid-course".into(),
+            function: g,
+            nodes: vec![nodes / 2],
+            kind: NodalKind::Inequality,
+        }],
+    }
+}
+
+fn guess(nodes: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let x = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    (x, vec![0.0; nodes], vec![3.0; nodes])
+}
+
+#[test]
+fn stepping_by_hand_equals_solve_and_the_observer_sees_every_iteration() {
+    let nodes = 21;
+    let (x, u, s) = guess(nodes);
+    let mut ptr = Ptr::new(problem(nodes), settings());
+    let mut seen = Vec::new();
+    let mut table = Vec::new();
+    IterationTable::header(&mut table).unwrap();
+    let solved = ptr
+        .solve_with(&x, &u, &s, |it, traj| {
+            assert_eq!(traj.x.len(), nodes * 2);
+            seen.push(it.iteration);
+            IterationTable::row(&mut table, it).unwrap();
+        })
+        .unwrap();
+    assert_eq!(solved.status, PtrStatus::Converged);
+    assert_eq!(seen, (1..=solved.history.len()).collect::<Vec<_>>());
+    let table = String::from_utf8(table).unwrap();
+    assert_eq!(table.lines().count(), 1 + solved.history.len() + 1, "{table}");
+    assert!(table.ends_with("stopped: Converged\n"), "{table}");
+    // The same by hand, reusing the solver.
+    ptr.start(&x, &u, &s).unwrap();
+    let mut last = None;
+    while last.is_none() {
+        last = ptr.step().unwrap().status;
+    }
+    assert_eq!(last, Some(PtrStatus::Converged));
+    let by_hand = ptr.result().unwrap();
+    assert_eq!(by_hand.x, solved.x);
+    assert_eq!(by_hand.final_time, solved.final_time);
+    assert_eq!(by_hand.history.len(), solved.history.len());
+    // A finished solve takes no more steps.
+    assert_eq!(ptr.step(), Err(PtrError::NotRunning));
+    // Timings are measured and add up.
+    let sum: f64 = by_hand.history.iter().map(|h| h.subproblem_ms).sum();
+    assert!((sum - by_hand.timings.subproblem_ms).abs() < 1e-9 && sum > 0.0);
+    assert!(by_hand.history.iter().all(|h| h.subproblem_iterations > 0));
+    // The nodal constraint is met and reported with its name.
+    let v = by_hand.violations.iter().find(|v| v.constraint == "past 0.6 at mid-course").unwrap();
+    assert!(v.value <= 1e-6 && v.node == Some(nodes / 2));
+}
+
+#[test]
+fn an_unfinished_solve_reports_what_it_still_violates() {
+    let nodes = 21;
+    let (x, u, s) = guess(nodes);
+    let r = Ptr::new(problem(nodes), PtrSettings { max_iterations: 1, ..settings() })
+        .solve(&x, &u, &s)
+        .unwrap();
+    assert_eq!(r.status, PtrStatus::MaxIterations);
+    assert_eq!(r.history.len(), 1);
+    assert_eq!(r.history[0].status, Some(PtrStatus::MaxIterations));
+    // The guess (no step accepted yet, or one step) is still infeasible somewhere; the worst
+    // violation names a constraint that exists and is the maximum of the list.
+    let worst = r.max_violation.expect("something is still violated");
+    assert!(worst.value > 1e-6);
+    let largest = r.violations.iter().map(|v| v.value).fold(0.0, f64::max);
+    assert_eq!(worst.value, largest);
+    assert!(
+        worst.constraint.starts_with("dynamics of ")
+            || worst.constraint == "past 0.6 at mid-course",
+        "{}",
+        worst.constraint
+    );
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let nodes = 11;
+    let (x, u, s) = guess(nodes);
+    let mut ptr = Ptr::new(problem(nodes), PtrSettings::default());
+    assert_eq!(ptr.step(), Err(PtrError::NotRunning));
+    assert!(ptr.result().is_none());
+    assert_eq!(
+        ptr.start(&x[1..], &u, &s),
+        Err(PtrError::GuessSize { what: "x", expected: 22, got: 21 })
+    );
+    let mut bad = u.clone();
+    bad[3] = f64::NAN;
+    assert_eq!(ptr.start(&x, &bad, &s), Err(PtrError::GuessNotFinite { what: "u", index: 3 }));
+    for (settings, field) in [
+        (PtrSettings { lam_tr: -1.0, ..PtrSettings::default() }, "lam_tr"),
+        (PtrSettings { max_iterations: 0, ..PtrSettings::default() }, "max_iterations"),
+        (PtrSettings { eps_tr: f64::NAN, ..PtrSettings::default() }, "eps_tr"),
+    ] {
+        assert!(settings.validate().is_err());
+        let err = Ptr::new(problem(nodes), settings).solve(&x, &u, &s).unwrap_err();
+        match err {
+            PtrError::Settings(e) => assert_eq!(e.field, field),
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(PtrSettings::default().validate().is_ok());
+}
