@@ -279,6 +279,14 @@ impl Dynamics {
         self.state_names.get(row).map(String::as_str)
     }
 
+    /// Sets a parameter of the dynamics; the next discretization uses it, nothing recompiles.
+    ///
+    /// # Errors
+    /// The symbolic crate's: unknown parameter, wrong length, non-finite value.
+    pub fn set_parameter(&mut self, name: &str, value: &[f64]) -> Result<(), SymbolicError> {
+        self.f.set_parameter(name, value)
+    }
+
     /// State size n.
     pub fn n_x(&self) -> usize {
         self.n_x

@@ -651,6 +651,37 @@ impl Ptr {
         &self.ocp
     }
 
+    /// Sets parameter `name` to `value` (row-major) in every compiled function that reads
+    /// it — the dynamics and the nodal constraints — and returns how many do. Nothing is
+    /// recompiled and the subproblem's pattern and solver are kept: the next
+    /// [`start`](Self::start) or [`solve`](Self::solve) uses the new value (a re-solve, e.g.
+    /// after moving a waypoint, may start from the previous solution).
+    ///
+    /// # Errors
+    /// [`PtrError::UnknownParameter`] if no function reads `name`; a value of the wrong
+    /// length or not finite ([`PtrError::Parameter`]).
+    pub fn set_parameter(&mut self, name: &str, value: &[f64]) -> Result<usize, PtrError> {
+        let mut count = 0;
+        if self.ocp.dynamics.function().parameter_names().any(|p| p == name) {
+            self.ocp.dynamics.set_parameter(name, value).map_err(PtrError::Parameter)?;
+            count += 1;
+        }
+        for c in &mut self.ocp.nodal {
+            if c.function.parameter_names().any(|p| p == name) {
+                c.function.set_parameter(name, value).map_err(PtrError::Parameter)?;
+                count += 1;
+            }
+        }
+        if count == 0 {
+            return Err(PtrError::UnknownParameter(name.to_string()));
+        }
+        // A running solve's reference was linearised with the old value: it must restart.
+        if let Some(st) = self.state.as_mut() {
+            st.status.get_or_insert(PtrStatus::MaxIterations);
+        }
+        Ok(count)
+    }
+
     /// Evaluates every nodal constraint at `(x, u)` into the buffers (values, Jacobians and
     /// per-buffer violations); returns `(Σ w·violation, largest violation)`.
     fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval, weights: &[f64]) -> (f64, f64) {
@@ -1209,6 +1240,12 @@ pub enum PtrError {
     /// The dynamics could not be discretized.
     #[error(transparent)]
     Discretization(#[from] DiscretizationError),
+    /// No function of the problem reads this parameter.
+    #[error("no function of the problem reads a parameter named `{0}`")]
+    UnknownParameter(String),
+    /// A parameter value the function rejects (wrong length, not finite).
+    #[error("parameter: {0}")]
+    Parameter(armature_symbolic::SymbolicError),
     /// [`Ptr::step`] before [`Ptr::start`] or after the final iteration.
     #[error("no solve is running: call start() first (a finished solve takes no more steps)")]
     NotRunning,

@@ -5,7 +5,7 @@
 
 mod seed;
 
-use armature_scvx::{Ptr, PtrSettings, PtrStatus};
+use armature_scvx::{Ptr, PtrError, PtrSettings, PtrStatus};
 
 #[test]
 fn seed_pick_and_place_converges_and_meets_the_task() {
@@ -30,4 +30,41 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
     assert!(c.table_violation <= 1e-4, "table violated by {}", c.table_violation);
     // Dynamically consistent: the nodes are where the dynamics take them.
     assert!(r.history.last().unwrap().max_defect < 1e-6);
+}
+
+/// Moving the place waypoint is a parameter change: the same `Ptr` (same compiled functions,
+/// same subproblem pattern and solver) re-solves from the previous solution and converges to a
+/// trajectory through the new waypoint.
+#[test]
+fn re_solve_after_moving_a_waypoint_needs_no_recompilation() {
+    let mut s = seed::build();
+    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    let first = ptr.solve(&s.x, &s.u, &s.s).unwrap();
+    assert_eq!(first.status, PtrStatus::Converged);
+    let moved = [0.30, 0.28, 0.05];
+    assert_eq!(ptr.set_parameter(&seed::waypoint_parameter(5), &moved), Ok(1));
+    assert!(matches!(
+        ptr.set_parameter("no_such_parameter", &[0.0]),
+        Err(PtrError::UnknownParameter(_))
+    ));
+    assert!(matches!(
+        ptr.set_parameter(&seed::waypoint_parameter(5), &[0.3]),
+        Err(PtrError::Parameter(_))
+    ));
+    let second = ptr.solve(&first.x, &first.u, &first.s).unwrap();
+    s.ocp = ptr.ocp().clone();
+    let c = seed::check(&s, &second);
+    eprintln!(
+        "re-solve: {:?} after {} iterations, T = {:.4} s; {c:?}",
+        second.status,
+        second.history.len(),
+        second.final_time
+    );
+    assert_eq!(second.status, PtrStatus::Converged);
+    assert_eq!(seed::waypoint(&s.ocp, 5), nalgebra::Vector3::from(moved));
+    assert!(c.waypoint_error <= 0.01 + 1e-6, "waypoint error {} m", c.waypoint_error);
+    assert!(c.joint_violation <= 1e-4 && c.velocity_violation <= 1e-4 && c.table_violation <= 1e-4);
+    assert!(c.orientation_error[1] <= 0.1f64.to_radians() + 1e-6, "{:?}", c.orientation_error);
+    // The final position moved with the waypoint.
+    assert!(second.final_time <= 4.0 + 1e-9);
 }

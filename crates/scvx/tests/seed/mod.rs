@@ -21,7 +21,7 @@ use armature_lie::SO3;
 use armature_scvx::{
     CtcsGroup, Dynamics, NodalConstraint, NodalKind, Ocp, Penalty, PtrResult, ctcs_states,
 };
-use armature_symbolic::{Expr, Function};
+use armature_symbolic::{Expr, Function, Shape};
 use std::f64::consts::FRAC_1_SQRT_2;
 
 /// Nodes (2 per segment).
@@ -46,6 +46,11 @@ pub const WAYPOINTS: [([f64; 3], [f64; 4]); 6] = [
 /// Orientation bounds: (degrees, nodes).
 pub fn orientation_ranges() -> [(f64, Vec<usize>); 2] {
     [(5.0, (2..=10).collect()), (0.1, (2..=6).chain(8..=10).collect())]
+}
+
+/// Name of the parameter holding waypoint `w`'s position.
+pub fn waypoint_parameter(w: usize) -> String {
+    format!("waypoint_{w}")
 }
 
 /// The problem and its guess.
@@ -115,7 +120,12 @@ pub fn build() -> Seed {
     for (w, (p, _)) in WAYPOINTS.iter().enumerate() {
         nodal.push(NodalConstraint {
             name: format!("waypoint {w}"),
-            function: Function::compile(&[&p_ee - Expr::constant_vector(p)], &args).unwrap(),
+            // A parameter: moving a waypoint re-solves without recompiling.
+            function: Function::compile(
+                &[&p_ee - Expr::parameter(&waypoint_parameter(w), Shape::Vector(3), p)],
+                &args,
+            )
+            .unwrap(),
             nodes: vec![2 * w],
             kind: NodalKind::Ball { radius: 0.01 },
         });
@@ -212,6 +222,13 @@ pub struct Checks {
     pub orientation_error: [f64; 2],
 }
 
+/// Waypoint `w`'s current position (its parameter's value in the problem).
+pub fn waypoint(ocp: &Ocp, w: usize) -> nalgebra::Vector3<f64> {
+    let name = waypoint_parameter(w);
+    let c = ocp.nodal.iter().find(|c| c.function.parameter(&name).is_some()).unwrap();
+    nalgebra::Vector3::from_column_slice(c.function.parameter(&name).unwrap())
+}
+
 /// Dense (dt = 0.01, single shooting from x₀) and nodal checks of a result.
 pub fn check(seed: &Seed, r: &PtrResult) -> Checks {
     let n = seed.ocp.dynamics.n_x();
@@ -234,7 +251,7 @@ pub fn check(seed: &Seed, r: &PtrResult) -> Checks {
         seed.arm.forward_ee(&r.x[k * n..k * n + 7], &mut fw).unwrap();
         let (rot, p) = fw.ee_matrix();
         if k % 2 == 0 {
-            wp = wp.max((p - nalgebra::Vector3::from(WAYPOINTS[k / 2].0)).norm());
+            wp = wp.max((p - waypoint(&seed.ocp, k / 2)).norm());
         }
         let e = SO3::from_matrix(&(down.transpose() * rot)).unwrap().log().norm();
         for (i, (_, nodes)) in orientation_ranges().iter().enumerate() {
