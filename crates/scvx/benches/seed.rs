@@ -1,5 +1,5 @@
-//! The seed pick-and-place: one full solve (after problem construction) and one
-//! discretization of the guess.
+//! The seed pick-and-place: one full solve (after problem construction), the same for the
+//! collision variant, and one discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -15,6 +15,11 @@ fn bench(c: &mut Criterion) {
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
+    });
+    let sc = seed::build_collision();
+    let mut ptr_c = Ptr::new(sc.ocp.clone(), PtrSettings::default());
+    g.bench_function("solve_collision", |b| {
+        b.iter(|| black_box(ptr_c.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
     let d = &s.ocp.dynamics;
     let mut ws = d.workspace();

@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -10,7 +10,9 @@ mod seed;
 use armature_scvx::{IterationTable, Ptr, PtrSettings};
 
 fn main() {
-    let s = seed::build();
+    // `-- collision` solves the seed's collision variant.
+    let collision = std::env::args().any(|a| a == "collision");
+    let s = if collision { seed::build_collision() } else { seed::build() };
     let t0 = std::time::Instant::now();
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     let built = t0.elapsed();
@@ -46,5 +48,9 @@ fn main() {
         c.waypoint_error,
         c.orientation_error[0].to_degrees(),
         c.orientation_error[1].to_degrees()
+    );
+    println!(
+        "smallest clearance on the dense trajectory: {:.4} m ({})",
+        c.min_clearance.0, c.min_clearance.1
     );
 }

@@ -68,3 +68,38 @@ fn re_solve_after_moving_a_waypoint_needs_no_recompilation() {
     // The final position moved with the waypoint.
     assert!(second.final_time <= 4.0 + 1e-9);
 }
+
+/// The seed's collision variant: capsule links, non-adjacent self-collision and the ball at
+/// (0.35, 0, 0.25), with exact distances from `armature-collision`. The plain solution passes
+/// through the ball; this one converges with every task constraint met and no pair
+/// penetrating anywhere on the dense trajectory (dt = 0.01).
+#[test]
+fn seed_collision_variant_converges_without_penetration() {
+    let s = seed::build_collision();
+    let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    let c = seed::check(&s, &r);
+    eprintln!(
+        "collision: {:?} after {} iterations, T = {:.4} s; {c:?}",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert!(r.final_time <= 4.0 + 1e-9);
+    assert!(
+        c.min_clearance.0 > 0.0,
+        "{} penetrates by {} m",
+        c.min_clearance.1,
+        -c.min_clearance.0
+    );
+    assert!(c.waypoint_error <= 0.01 + 1e-6, "waypoint error {} m", c.waypoint_error);
+    assert!(c.orientation_error[0] <= 5f64.to_radians() + 1e-6, "{:?}", c.orientation_error);
+    assert!(c.orientation_error[1] <= 0.1f64.to_radians() + 1e-6, "{:?}", c.orientation_error);
+    assert!(c.joint_violation <= 1e-4 && c.velocity_violation <= 1e-4 && c.table_violation <= 1e-4);
+    // The plain problem's solution does hit the ball: the variant is not vacuous.
+    let plain = seed::build();
+    let rp = Ptr::new(plain.ocp.clone(), PtrSettings::default())
+        .solve(&plain.x, &plain.u, &plain.s)
+        .unwrap();
+    assert!(seed::check(&plain, &rp).min_clearance.0 < 0.0);
+}

@@ -48,6 +48,10 @@ pub fn orientation_ranges() -> [(f64, Vec<usize>); 2] {
     [(5.0, (2..=10).collect()), (0.1, (2..=6).chain(8..=10).collect())]
 }
 
+/// Clearance the collision variant asks of every pair (m): the CTCS integral with ε = 1e-6
+/// lets the trajectory dip ~0.3 mm below its bound between nodes, so the bound keeps 2 mm.
+pub const CLEARANCE_MARGIN: f64 = 0.002;
+
 /// Name of the parameter holding waypoint `w`'s position.
 pub fn waypoint_parameter(w: usize) -> String {
     format!("waypoint_{w}")
@@ -65,6 +69,18 @@ pub struct Seed {
 
 /// Builds the seed problem and its guess.
 pub fn build() -> Seed {
+    build_with(false)
+}
+
+/// The seed's collision variant: capsules base–shoulder 0.06, shoulder–elbow 0.05,
+/// elbow–wrist 0.04, wrist–ee 0.035, non-adjacent self-collision and the ball at
+/// (0.35, 0, 0.25) r = 0.06, as exact pair distances from `armature-collision`, kept ≥ 0 in
+/// continuous time (a CTCS group) and at every node.
+pub fn build_collision() -> Seed {
+    build_with(true)
+}
+
+fn build_with(collision: bool) -> Seed {
     let arm = robots::arm7();
     let nodes = NODES;
     let angle = Expr::variable("angle", 7);
@@ -86,7 +102,7 @@ pub fn build() -> Seed {
         last,
         penalty: Penalty::SquaredRelu,
     };
-    let groups = [
+    let mut groups = vec![
         CtcsGroup {
             constraints: vec![
                 &angle - Expr::constant_vector(&qhi),
@@ -103,7 +119,23 @@ pub fn build() -> Seed {
         ori_group(tight, 2, 6),
         ori_group(tight, 8, 10),
     ];
-    let eps = [1e-6, 1e-4, 1e-4, 1e-4];
+    let mut eps = vec![1e-6, 1e-4, 1e-4, 1e-4];
+    let distances = if collision {
+        let model = armature_collision::CollisionModel::seed_arm7(&arm).unwrap();
+        let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
+        model.symbolic_distances(&positions)
+    } else {
+        Vec::new()
+    };
+    if collision {
+        groups.push(CtcsGroup {
+            constraints: distances.iter().map(|(_, d)| CLEARANCE_MARGIN - d).collect(),
+            first: 0,
+            last: nodes - 1,
+            penalty: Penalty::Relu,
+        });
+        eps.push(1e-6);
+    }
     let mut states = vec![angle.clone(), velocity.clone()];
     let mut rhs = vec![velocity.clone(), &i_inv * &torque];
     for (y, f) in ctcs_states(&groups) {
@@ -115,6 +147,7 @@ pub fn build() -> Seed {
         dynamics = dynamics.gate(14 + i, g.first, g.last).unwrap();
     }
     let n = 14 + groups.len();
+    let n_groups = groups.len();
     let args = [states.as_slice(), &[torque.clone()]];
     let mut nodal = Vec::new();
     for (w, (p, _)) in WAYPOINTS.iter().enumerate() {
@@ -128,6 +161,14 @@ pub fn build() -> Seed {
             .unwrap(),
             nodes: vec![2 * w],
             kind: NodalKind::Ball { radius: 0.01 },
+        });
+    }
+    for (name, d) in &distances {
+        nodal.push(NodalConstraint {
+            name: format!("clearance {name}"),
+            function: Function::compile(&[CLEARANCE_MARGIN - d], &args).unwrap(),
+            nodes: (0..nodes).collect(),
+            kind: NodalKind::Inequality,
         });
     }
     let log_f = Function::compile(&[log], &args).unwrap();
@@ -172,15 +213,15 @@ pub fn build() -> Seed {
     s.push(s[nodes - 2]);
     let mut x_min = qlo.clone();
     x_min.extend([-VELOCITY; 7]);
-    x_min.extend([0.0; 4]);
+    x_min.extend(vec![0.0; n_groups]);
     let mut x_max = qhi.clone();
     x_max.extend([VELOCITY; 7]);
-    x_max.extend([1e-3; 4]);
+    x_max.extend(vec![1e-3; n_groups]);
     let mut x_initial: Vec<Option<f64>> = ik.q[0].iter().map(|&v| Some(v)).collect();
-    x_initial.extend([Some(0.0); 11]);
+    x_initial.extend(vec![Some(0.0); 7 + n_groups]);
     let mut x_final: Vec<Option<f64>> = vec![None; 7];
     x_final.extend([Some(0.0); 7]);
-    x_final.extend([None; 4]);
+    x_final.extend(vec![None; n_groups]);
     let ocp = Ocp {
         dynamics,
         nodes,
@@ -194,7 +235,9 @@ pub fn build() -> Seed {
         s_max: 20.0,
         final_time: (0.0, 4.0),
         time_weight: 1.0,
-        increments: (0..4).map(|i| (14 + i, eps[i], groups[i].first, groups[i].last)).collect(),
+        increments: (0..n_groups)
+            .map(|i| (14 + i, eps[i], groups[i].first, groups[i].last))
+            .collect(),
         nodal,
     };
     // CTCS integrals along the guess, so it has no defects in those rows either.
@@ -220,6 +263,9 @@ pub struct Checks {
     pub waypoint_error: f64,
     /// Largest orientation error (rad) over the nodes of each range of `orientation_ranges`.
     pub orientation_error: [f64; 2],
+    /// Smallest signed distance of any collision pair of the seed's collision model on the
+    /// dense trajectory, and the pair (negative: penetration).
+    pub min_clearance: (f64, String),
 }
 
 /// Waypoint `w`'s current position (its parameter's value in the problem).
@@ -236,7 +282,18 @@ pub fn check(seed: &Seed, r: &PtrResult) -> Checks {
     let (qlo, qhi) = seed.arm.position_limits();
     let mut fw = seed.arm.fk_workspace();
     let (mut jv, mut vv, mut tv) = (0.0f64, 0.0f64, 0.0f64);
+    let model = armature_collision::CollisionModel::seed_arm7(&seed.arm).unwrap();
+    let mut cws = model.workspace(&seed.arm);
+    let mut clearance = (f64::INFINITY, String::new());
     for row in dense.chunks(n) {
+        for (k, pr) in
+            model.evaluate(&seed.arm, &row[..7], &mut cws, false).unwrap().iter().enumerate()
+        {
+            if pr.distance < clearance.0 {
+                let p = &model.pairs()[k];
+                clearance = (pr.distance, format!("{}|{}", p.a, p.b));
+            }
+        }
         for j in 0..7 {
             jv = jv.max(row[j] - qhi[j]).max(qlo[j] - row[j]);
             vv = vv.max(row[7 + j].abs() - VELOCITY);
@@ -268,5 +325,6 @@ pub fn check(seed: &Seed, r: &PtrResult) -> Checks {
         table_violation: tv.max(0.0),
         waypoint_error: wp,
         orientation_error: ori,
+        min_clearance: clearance,
     }
 }
