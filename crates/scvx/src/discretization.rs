@@ -79,6 +79,19 @@ pub struct Discretization {
     pub defect: Vec<f64>,
 }
 
+/// A densely sampled trajectory from [`Dynamics::propagate_dense`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DenseTrajectory {
+    /// Sample times (s), starting at 0.
+    pub time: Vec<f64>,
+    /// States, one row of n per sample.
+    pub x: Vec<f64>,
+    /// First-order-hold controls, one row of m per sample.
+    pub u: Vec<f64>,
+    /// The segment each sample ends (0 for the first sample).
+    pub segment: Vec<usize>,
+}
+
 /// Preallocated integrator scratch (no allocation per discretization): one lane per rayon
 /// worker thread (at creation), each integrating a contiguous run of segments.
 #[derive(Debug, Clone)]
@@ -420,6 +433,21 @@ impl Dynamics {
         s: &[f64],
         dt: f64,
     ) -> Result<(Vec<f64>, Vec<f64>), DiscretizationError> {
+        self.propagate_dense(x0, u, s, dt).map(|d| (d.time, d.x))
+    }
+
+    /// [`propagate`](Self::propagate) with the first-order-hold controls at every sample
+    /// (what the dynamics saw there) and each sample's segment.
+    ///
+    /// # Errors
+    /// As [`propagate`](Self::propagate).
+    pub fn propagate_dense(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        s: &[f64],
+        dt: f64,
+    ) -> Result<DenseTrajectory, DiscretizationError> {
         let (n, mu) = (self.n_x, self.n_u);
         let nodes = s.len();
         if nodes < 2 || x0.len() != n || u.len() != nodes * mu || dt.is_nan() || dt <= 0.0 {
@@ -433,6 +461,8 @@ impl Dynamics {
         let dtau = 1.0 / (nodes - 1) as f64;
         let mut ws = self.lane();
         let (mut times, mut states) = (vec![0.0], x0.to_vec());
+        let mut controls = u[..mu].to_vec();
+        let mut segment = vec![0];
         let mut x = x0.to_vec();
         let (mut k0, mut k1, mut k2, mut k3, mut tmp) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
@@ -482,9 +512,13 @@ impl Dynamics {
                 t += h;
                 times.push(t);
                 states.extend_from_slice(&x);
+                segment.push(seg);
+                for i in 0..mu {
+                    controls.push(if self.foh[i] { uk[i] + b1 * (uk1[i] - uk[i]) } else { uk[i] });
+                }
             }
         }
-        Ok((times, states))
+        Ok(DenseTrajectory { time: times, x: states, u: controls, segment })
     }
 
     /// Discretizes around nodes `x` (N×n row-major), `u` (N×m) and dilations `s` (N, ZOH:

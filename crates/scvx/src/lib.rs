@@ -3,11 +3,17 @@
 
 pub mod ctcs;
 pub mod discretization;
+pub mod problem;
 pub mod ptr;
 
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
-    Discretization, DiscretizationError, DiscretizationSettings, DiscretizationWorkspace, Dynamics,
+    DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
+    DiscretizationWorkspace, Dynamics,
+};
+pub use problem::{
+    Ball, Boundary, CompiledProblem, Control, CtcsOptions, Problem, ProblemConstraint,
+    ProblemError, Solution, SolutionTimings, State, Time,
 };
 pub use ptr::{
     Iteration, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,

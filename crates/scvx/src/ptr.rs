@@ -75,6 +75,9 @@ pub struct Ocp {
     pub final_time: (f64, f64),
     /// Weight of the final time in the cost (0: fixed-time feasibility).
     pub time_weight: f64,
+    /// Linear cost on final-state components `(state index, weight)`: a positive weight
+    /// minimizes `x_{N−1}[i]`, a negative one maximizes it.
+    pub final_cost: Vec<(usize, f64)>,
     /// CTCS increments `(state row, ε, first node, last node)`: `y_{k+1} − y_k ≤ ε` for the
     /// segments of the interval.
     pub increments: Vec<(usize, f64, usize, usize)>,
@@ -144,6 +147,8 @@ pub struct PtrSettings {
     pub discretization: DiscretizationSettings,
     /// Settings of the convex subproblem solver (Clarabel).
     pub subproblem: SubproblemSettings,
+    /// Time step of the dense propagation in post-processing (s). Default 0.01.
+    pub dense_dt: f64,
 }
 
 /// Settings of the interior-point solver of each convex subproblem (Clarabel); the rest of
@@ -219,6 +224,7 @@ impl PtrSettings {
             ("eps_defect", self.eps_defect),
             ("subproblem.tolerance", self.subproblem.tolerance),
             ("subproblem.refinement_tolerance", self.subproblem.refinement_tolerance),
+            ("dense_dt", self.dense_dt),
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -266,6 +272,7 @@ impl Default for PtrSettings {
             max_iterations: 100,
             discretization: DiscretizationSettings::default(),
             subproblem: SubproblemSettings::default(),
+            dense_dt: 0.01,
         }
     }
 }
@@ -300,6 +307,20 @@ pub enum PtrStatus {
     SubproblemInfeasible,
     /// Clarabel failed numerically.
     NumericalFailure,
+}
+
+impl PtrStatus {
+    /// The status as a stable snake-case word (`converged`, `max_iterations`, `stalled`,
+    /// `subproblem_infeasible`, `numerical_failure`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PtrStatus::Converged => "converged",
+            PtrStatus::MaxIterations => "max_iterations",
+            PtrStatus::Stalled => "stalled",
+            PtrStatus::SubproblemInfeasible => "subproblem_infeasible",
+            PtrStatus::NumericalFailure => "numerical_failure",
+        }
+    }
 }
 
 /// One iteration's record.
@@ -737,7 +758,14 @@ impl Ptr {
         let l1: f64 = d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum();
         let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let (viol, max_viol) = self.eval_nodal(x, u, ev, lam_vb);
-        (self.ocp.time_weight * tf + l1 + viol, tf, max, max_viol)
+        (self.cost(x, tf) + l1 + viol, tf, max, max_viol)
+    }
+
+    /// The objective: time weight × final time plus the final-state cost.
+    fn cost(&self, x: &[f64], tf: f64) -> f64 {
+        let last = (self.ocp.nodes - 1) * self.ocp.dynamics.n_x();
+        self.ocp.time_weight * tf
+            + self.ocp.final_cost.iter().map(|&(i, w)| w * x[last + i]).sum::<f64>()
     }
 
     /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N) to the end: [`start`](Self::start),
@@ -1020,6 +1048,9 @@ impl Ptr {
         for k in 0..nn - 1 {
             st.q[s0 + k] += self.ocp.time_weight * dtau;
         }
+        for &(i, w) in &self.ocp.final_cost {
+            st.q[(nn - 1) * n + i] += w;
+        }
         for (i, qi) in st.q.iter_mut().enumerate().skip(vp0) {
             *qi = if i < self.vb0 { st.lam_vc[(i - vp0) % n] } else { st.lam_vb[i - self.vb0] };
         }
@@ -1109,7 +1140,7 @@ impl Ptr {
         st.timings.discretization_ms += record.discretization_ms;
         let (jc, tfc, max_defect, max_violation) =
             self.merit(xc, uc, sc, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
-        let cost = self.ocp.time_weight * tfc;
+        let cost = self.cost(xc, tfc);
         let predicted = st.jbar - (cost + vc_cost + vb_cost);
         let rho = if predicted.abs() > 1e-14 { (st.jbar - jc) / predicted } else { 1.0 };
         let accept = match set.trust_region {

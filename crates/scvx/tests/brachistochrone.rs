@@ -47,6 +47,7 @@ fn brachistochrone_matches_the_cycloid() {
         s_max: 5.0,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
+        final_cost: vec![],
         increments: vec![],
         nodal: vec![],
     };

@@ -52,6 +52,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         s_max: 10.0,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
+        final_cost: vec![],
         increments: vec![(2, 1e-6, 0, nodes - 1)],
         nodal: vec![],
     };
@@ -132,6 +133,7 @@ fn nodal_constraint_holds_at_convergence() {
         s_max: 10.0,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
+        final_cost: vec![],
         increments: vec![],
         nodal: vec![NodalConstraint {
             name: "slow start".into(),

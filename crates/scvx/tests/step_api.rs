@@ -41,6 +41,7 @@ fn problem(nodes: usize) -> Ocp {
         s_max: 10.0,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
+        final_cost: vec![],
         increments: vec![],
         nodal: vec![NodalConstraint {
             name: "past 0.6 at mid-course".into(),

@@ -235,6 +235,7 @@ fn build_with(collision: bool) -> Seed {
         s_max: 20.0,
         final_time: (0.0, 4.0),
         time_weight: 1.0,
+        final_cost: vec![],
         increments: (0..n_groups)
             .map(|i| (14 + i, eps[i], groups[i].first, groups[i].last))
             .collect(),

@@ -1,0 +1,1031 @@
+//! The named problem layer: states, controls, time, dynamics, constraints and algebraic
+//! outputs by name — the seed tutorial's modeling API in Rust — compiled once into an
+//! [`Ocp`] and solved by [`Ptr`], with post-processing into a named, serializable
+//! [`Solution`].
+//!
+//! # What compiling does
+//! - Continuous-time constraints (`Constraint::ctcs()`, optionally `.over(a, b)`) are grouped
+//!   by node interval and [`CtcsOptions`] into augmented integral states (as OpenSCvx groups
+//!   them), gated to their interval, with the nodal condition `y_{k+1} − y_k ≤ ε`.
+//! - State bounds hold at the nodes (subproblem box constraints) and, with
+//!   [`Problem::state_bounds_ctcs`], also between them (one more CTCS group).
+//! - Nodal constraints (`.at(&[k])`, `.over(a, b)`, all nodes by default) are linearized
+//!   with virtual buffers; equalities become two inequalities. [`Ball`]s `‖g‖ ≤ r` stay
+//!   second-order cones (waypoint tolerances, orientation cones).
+//! - Free final time `≤ max` (and `≥ min`) is a linear constraint on the dilations; minimizing
+//!   it puts weight 1 on it. `Minimize`/`Maximize` final conditions add ±1 × that component.
+//! - The initial guess is each state's guess or the straight line between its fixed
+//!   initial and final values, the controls' guesses or zero (clamped into their bounds), and
+//!   uniform dilations for the time guess; the CTCS integrals are integrated along it.
+//!
+//! # Example: minimum-time double integrator
+//! ```
+//! use armature_scvx::{Boundary, Control, Problem, PtrSettings, State, Time};
+//! let p = State::new("p", 1).initial_value(&[0.0]).final_value(&[1.0]);
+//! let v = State::new("v", 1).bounds(&[-10.0], &[10.0]).initial_value(&[0.0]).final_value(&[0.0]);
+//! let a = Control::new("a", 1).bounds(&[-1.0], &[1.0]);
+//! let problem = Problem {
+//!     dynamics: vec![v.expr(), a.expr()],
+//!     states: vec![p, v],
+//!     controls: vec![a],
+//!     time: Time::Free { min: 0.0, max: 10.0, guess: 3.0, minimize: true },
+//!     ..Problem::new(21)
+//! };
+//! let settings = PtrSettings {
+//!     trust_region: armature_scvx::TrustRegionUpdate::Constant,
+//!     lam_vc: 1e2,
+//!     eps_tr: 1e-4,
+//!     ..PtrSettings::default()
+//! };
+//! let mut compiled = problem.compile(settings).unwrap();
+//! let solution = compiled.solve().unwrap();
+//! assert_eq!(solution.status, "converged");
+//! assert!((solution.final_time - 2.0).abs() < 0.02); // bang–bang: 2 s
+//! // The dense single-shooting trajectory ends where the nodes do (to the defect tolerance).
+//! assert!((solution.trajectory["p"].last().unwrap()[0] - 1.0).abs() < 1e-5);
+//! assert_eq!(solution.nodes["time"].len(), 21);
+//! ```
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use armature_symbolic::{Constraint, Expr, Function, SymbolicError, Timing};
+use serde::Serialize;
+
+use crate::{
+    CtcsGroup, DiscretizationError, Dynamics, Iteration, NodalConstraint, NodalKind, Ocp, Penalty,
+    Ptr, PtrError, PtrResult, PtrSettings, Trajectory, Violation, ctcs_states,
+};
+
+/// A boundary condition of one state component.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Boundary {
+    /// Fixed to this value.
+    Fixed(f64),
+    /// Free.
+    Free,
+    /// Free, and its final value is minimized (final conditions only).
+    Minimize,
+    /// Free, and its final value is maximized (final conditions only).
+    Maximize,
+}
+
+/// A named state vector with bounds, boundary conditions and an optional guess.
+#[derive(Debug, Clone, PartialEq)]
+pub struct State {
+    /// The name (the symbolic variable's, and the key in the [`Solution`]).
+    pub name: String,
+    /// Lower bounds (−∞ for none), one per component.
+    pub min: Vec<f64>,
+    /// Upper bounds (+∞ for none).
+    pub max: Vec<f64>,
+    /// Initial conditions, one per component.
+    pub initial: Vec<Boundary>,
+    /// Final conditions, one per component.
+    pub terminal: Vec<Boundary>,
+    /// Guess, N × size row-major (`None`: the straight line between the boundary values).
+    pub guess: Option<Vec<f64>>,
+}
+
+impl State {
+    /// A free, unbounded state of `size` components.
+    pub fn new(name: &str, size: usize) -> State {
+        State {
+            name: name.to_string(),
+            min: vec![f64::NEG_INFINITY; size],
+            max: vec![f64::INFINITY; size],
+            initial: vec![Boundary::Free; size],
+            terminal: vec![Boundary::Free; size],
+            guess: None,
+        }
+    }
+
+    /// Number of components.
+    pub fn size(&self) -> usize {
+        self.min.len()
+    }
+
+    /// The symbolic variable of this state.
+    pub fn expr(&self) -> Expr {
+        Expr::variable(&self.name, self.size())
+    }
+
+    /// With bounds.
+    pub fn bounds(mut self, min: &[f64], max: &[f64]) -> Self {
+        (self.min, self.max) = (min.to_vec(), max.to_vec());
+        self
+    }
+
+    /// With a fixed initial value.
+    pub fn initial_value(mut self, v: &[f64]) -> Self {
+        self.initial = v.iter().map(|&x| Boundary::Fixed(x)).collect();
+        self
+    }
+
+    /// With a fixed final value.
+    pub fn final_value(mut self, v: &[f64]) -> Self {
+        self.terminal = v.iter().map(|&x| Boundary::Fixed(x)).collect();
+        self
+    }
+
+    /// With per-component final conditions.
+    pub fn final_conditions(mut self, b: &[Boundary]) -> Self {
+        self.terminal = b.to_vec();
+        self
+    }
+
+    /// With a guess (N × size, row-major).
+    pub fn guess(mut self, g: Vec<f64>) -> Self {
+        self.guess = Some(g);
+        self
+    }
+}
+
+/// A named control vector with bounds and an optional guess.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Control {
+    /// The name.
+    pub name: String,
+    /// Lower bounds (−∞ for none).
+    pub min: Vec<f64>,
+    /// Upper bounds (+∞ for none).
+    pub max: Vec<f64>,
+    /// First-order hold (true, the default) or zero-order hold.
+    pub foh: bool,
+    /// Guess, N × size row-major (`None`: zero, clamped into the bounds).
+    pub guess: Option<Vec<f64>>,
+}
+
+impl Control {
+    /// An unbounded first-order-hold control of `size` components.
+    pub fn new(name: &str, size: usize) -> Control {
+        Control {
+            name: name.to_string(),
+            min: vec![f64::NEG_INFINITY; size],
+            max: vec![f64::INFINITY; size],
+            foh: true,
+            guess: None,
+        }
+    }
+
+    /// Number of components.
+    pub fn size(&self) -> usize {
+        self.min.len()
+    }
+
+    /// The symbolic variable of this control.
+    pub fn expr(&self) -> Expr {
+        Expr::variable(&self.name, self.size())
+    }
+
+    /// With bounds.
+    pub fn bounds(mut self, min: &[f64], max: &[f64]) -> Self {
+        (self.min, self.max) = (min.to_vec(), max.to_vec());
+        self
+    }
+
+    /// With a guess (N × size, row-major).
+    pub fn guess(mut self, g: Vec<f64>) -> Self {
+        self.guess = Some(g);
+        self
+    }
+}
+
+/// The final time.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Time {
+    /// Fixed duration (s).
+    Fixed(f64),
+    /// Free within `[min, max]` (s), starting from `guess`, minimized or not.
+    Free {
+        /// Lower bound (0 for none).
+        min: f64,
+        /// Upper bound (finite: it also bounds the per-segment dilations).
+        max: f64,
+        /// Initial guess.
+        guess: f64,
+        /// Minimize the final time.
+        minimize: bool,
+    },
+}
+
+/// How a continuous-time constraint is integrated (CTCS).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CtcsOptions {
+    /// The penalty integrated. Default squared ReLU (OpenSCvx's).
+    pub penalty: Penalty,
+    /// Allowed increment of the integral per segment. Default 1e-4.
+    pub eps: f64,
+}
+
+impl Default for CtcsOptions {
+    fn default() -> Self {
+        CtcsOptions { penalty: Penalty::SquaredRelu, eps: 1e-4 }
+    }
+}
+
+/// A constraint of the problem with its CTCS options (used when it is continuous-time).
+#[derive(Debug, Clone)]
+pub struct ProblemConstraint {
+    /// `g ≤ 0` or `g = 0` with its timing (see `armature_symbolic::Constraint`).
+    pub constraint: Constraint,
+    /// Integration options if it is continuous-time.
+    pub ctcs: CtcsOptions,
+}
+
+impl From<Constraint> for ProblemConstraint {
+    fn from(constraint: Constraint) -> Self {
+        ProblemConstraint { constraint, ctcs: CtcsOptions::default() }
+    }
+}
+
+/// A nodal second-order-cone constraint `‖g‖₂ ≤ radius` (kept exact in the subproblem).
+#[derive(Debug, Clone)]
+pub struct Ball {
+    /// Name for diagnostics.
+    pub name: String,
+    /// The vector `g` (e.g. `p_ee − waypoint`).
+    pub g: Expr,
+    /// The radius (> 0).
+    pub radius: f64,
+    /// Nodes where it holds.
+    pub nodes: Vec<usize>,
+}
+
+/// A trajectory optimization problem by name. Build with struct-update syntax from
+/// [`Problem::new`] (see the module example).
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// Number of nodes N (≥ 2).
+    pub nodes: usize,
+    /// States, in order.
+    pub states: Vec<State>,
+    /// Controls, in order.
+    pub controls: Vec<Control>,
+    /// One right-hand side per state (`d state / dt`), in the order of `states`.
+    pub dynamics: Vec<Expr>,
+    /// Final time.
+    pub time: Time,
+    /// Constraints.
+    pub constraints: Vec<ProblemConstraint>,
+    /// Nodal second-order-cone constraints.
+    pub balls: Vec<Ball>,
+    /// Named algebraic outputs evaluated along the solution (e.g. `ee_position`).
+    pub outputs: Vec<(String, Expr)>,
+    /// Also enforce the state bounds between nodes (a CTCS group) with these options.
+    /// Default `Some(ReLU, ε = 1e-6)`; `None` keeps them nodal only.
+    pub state_bounds_ctcs: Option<CtcsOptions>,
+    /// Bounds of the per-segment dilation `s` (segment duration `s/(N − 1)`); `None`:
+    /// `[T_max/40, 5·T_max]`.
+    pub dilation: Option<(f64, f64)>,
+}
+
+impl Problem {
+    /// An empty problem with `nodes` nodes and free final time in [0, 10] s.
+    pub fn new(nodes: usize) -> Problem {
+        Problem {
+            nodes,
+            states: Vec::new(),
+            controls: Vec::new(),
+            dynamics: Vec::new(),
+            time: Time::Free { min: 0.0, max: 10.0, guess: 5.0, minimize: true },
+            constraints: Vec::new(),
+            balls: Vec::new(),
+            outputs: Vec::new(),
+            state_bounds_ctcs: Some(CtcsOptions { penalty: Penalty::Relu, eps: 1e-6 }),
+            dilation: None,
+        }
+    }
+}
+
+/// Errors of building or solving a [`Problem`]: bad input, never solver outcomes.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProblemError {
+    /// Something in the problem that cannot be used, saying what and why.
+    #[error("problem: {what}: {reason}")]
+    Bad {
+        /// The item (`state "angle"`, `constraint "…"`, `time`).
+        what: String,
+        /// Why.
+        reason: String,
+    },
+    /// An expression that does not compile (shape mismatch, unknown variable, …).
+    #[error("{what}: {source}")]
+    Symbolic {
+        /// Where.
+        what: String,
+        /// The symbolic error.
+        source: SymbolicError,
+    },
+    /// The solver's input errors.
+    #[error(transparent)]
+    Ptr(#[from] PtrError),
+}
+
+fn bad(what: impl Into<String>, reason: impl Into<String>) -> ProblemError {
+    ProblemError::Bad { what: what.into(), reason: reason.into() }
+}
+
+fn sym(what: impl Into<String>) -> impl FnOnce(SymbolicError) -> ProblemError {
+    let what = what.into();
+    move |source| ProblemError::Symbolic { what, source }
+}
+
+/// A guess `(x, u, s)`: N×n states (with the CTCS integrals), N×m controls, N dilations.
+type Guess = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// Where a named block lives in the flat state/control/output vectors.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct Block {
+    name: String,
+    offset: usize,
+    size: usize,
+}
+
+/// A compiled [`Problem`]: the solver, the guess and the name layout.
+#[derive(Debug)]
+pub struct CompiledProblem {
+    ptr: Ptr,
+    settings: PtrSettings,
+    states: Vec<Block>,
+    controls: Vec<Block>,
+    outputs: Vec<Block>,
+    output_fn: Option<Function>,
+    guess: Guess,
+}
+
+/// A solve's result by name, with stable top-level keys (scripts depend on them).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Solution {
+    /// `"converged"` or why it stopped (`"max_iterations"`, `"stalled"`,
+    /// `"subproblem_infeasible"`, `"numerical_failure"`).
+    pub status: String,
+    /// Final time (s).
+    pub final_time: f64,
+    /// SCvx iterations.
+    pub iterations: usize,
+    /// At the nodes: `time`, every state, control and algebraic output by name, each as
+    /// rows (one per node; matrix outputs row-major).
+    pub nodes: BTreeMap<String, Vec<Vec<f64>>>,
+    /// The same on the dense trajectory (single shooting from the initial state at
+    /// `dense_dt`, first-order-hold controls).
+    pub trajectory: BTreeMap<String, Vec<Vec<f64>>>,
+    /// Per-iteration records.
+    pub history: Vec<Iteration>,
+    /// Wall-clock totals (ms), with the post-processing.
+    pub timings: SolutionTimings,
+    /// Largest violation of every constraint at the nodes (dynamics per state component,
+    /// nodal constraints, balls).
+    pub violations: Vec<Violation>,
+    /// The largest positive violation, if any.
+    pub max_violation: Option<Violation>,
+}
+
+/// Wall-clock totals of a solve (ms).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct SolutionTimings {
+    /// Discretizations.
+    pub discretization_ms: f64,
+    /// Convex subproblems.
+    pub subproblem_ms: f64,
+    /// The whole SCvx loop.
+    pub solve_ms: f64,
+    /// Dense propagation and output evaluation.
+    pub post_processing_ms: f64,
+}
+
+impl Problem {
+    /// Checks the problem and compiles it: dynamics, CTCS groups, nodal constraints and
+    /// outputs become compiled functions, the subproblem pattern is built once, and the
+    /// guess is prepared.
+    ///
+    /// # Errors
+    /// [`ProblemError`] saying what is wrong and where: sizes that do not match, bounds
+    /// that cross, NaN, a fixed value outside its bounds, a node out of range, a constraint
+    /// or expression that does not compile, unusable settings.
+    pub fn compile(&self, settings: PtrSettings) -> Result<CompiledProblem, ProblemError> {
+        settings.validate().map_err(PtrError::from)?;
+        let nn = self.nodes;
+        if nn < 2 {
+            return Err(bad("nodes", format!("need at least 2, got {nn}")));
+        }
+        self.check_variables()?;
+        let (s_lo, s_hi) = self.check_time()?;
+        // CTCS groups by (interval, penalty, ε), in order of first appearance.
+        let mut groups: Vec<(CtcsGroup, f64)> = Vec::new();
+        let mut add = |g: Expr, first: usize, last: usize, o: CtcsOptions| match groups
+            .iter_mut()
+            .find(|(c, eps)| {
+                (c.first, c.last, c.penalty) == (first, last, o.penalty) && *eps == o.eps
+            }) {
+            Some((c, _)) => c.constraints.push(g),
+            None => groups
+                .push((CtcsGroup { constraints: vec![g], first, last, penalty: o.penalty }, o.eps)),
+        };
+        if let Some(o) = self.state_bounds_ctcs {
+            for st in &self.states {
+                let e = st.expr();
+                // Whole vectors where every component is bounded, else per component.
+                if st.max.iter().all(|v| v.is_finite()) {
+                    add(&e - Expr::constant_vector(&st.max), 0, nn - 1, o);
+                } else {
+                    for i in (0..st.size()).filter(|&i| st.max[i].is_finite()) {
+                        add(e.at(i) - st.max[i], 0, nn - 1, o);
+                    }
+                }
+                if st.min.iter().all(|v| v.is_finite()) {
+                    add(Expr::constant_vector(&st.min) - &e, 0, nn - 1, o);
+                } else {
+                    for i in (0..st.size()).filter(|&i| st.min[i].is_finite()) {
+                        add(Expr::scalar(st.min[i]) - e.at(i), 0, nn - 1, o);
+                    }
+                }
+            }
+        }
+        let mut nodal_specs = Vec::new();
+        for pc in &self.constraints {
+            let c = &pc.constraint;
+            c.validate(nn).map_err(sym(format!("constraint \"{}\"", c.name())))?;
+            if !(pc.ctcs.eps.is_finite() && pc.ctcs.eps > 0.0) {
+                return Err(bad(format!("constraint \"{}\"", c.name()), "CTCS ε must be > 0"));
+            }
+            match c.timing() {
+                Timing::Continuous(range) => {
+                    let (a, b) = range.unwrap_or((0, nn - 1));
+                    add(c.function().clone(), a, b, pc.ctcs);
+                }
+                Timing::Nodal(nodes) => nodal_specs.push((c, nodes.resolve(nn))),
+            }
+        }
+        // States: the named ones, then one integral per CTCS group.
+        let mut state_exprs: Vec<Expr> = self.states.iter().map(State::expr).collect();
+        let mut rhs = self.dynamics.clone();
+        let ctcs_groups: Vec<CtcsGroup> = groups.iter().map(|(g, _)| g.clone()).collect();
+        for (y, f) in ctcs_states(&ctcs_groups) {
+            state_exprs.push(y);
+            rhs.push(f);
+        }
+        let control_exprs: Vec<Expr> = self.controls.iter().map(Control::expr).collect();
+        let foh: Vec<bool> =
+            self.controls.iter().flat_map(|c| std::iter::repeat_n(c.foh, c.size())).collect();
+        let n_named: usize = self.states.iter().map(State::size).sum();
+        let mut dynamics =
+            Dynamics::new(&state_exprs, &control_exprs, &rhs, &foh).map_err(|e| match e {
+                DiscretizationError::Symbolic(source) => {
+                    ProblemError::Symbolic { what: "dynamics".into(), source }
+                }
+                DiscretizationError::Size(reason) => bad("dynamics", reason),
+            })?;
+        for (i, (g, _)) in groups.iter().enumerate() {
+            dynamics = dynamics
+                .gate(n_named + i, g.first, g.last)
+                .map_err(|e| bad("CTCS interval", e.to_string()))?;
+        }
+        let n = n_named + groups.len();
+        let args = [state_exprs.as_slice(), control_exprs.as_slice()];
+        // Nodal constraints and balls.
+        let mut nodal = Vec::new();
+        for (c, nodes) in nodal_specs {
+            let what = format!("constraint \"{}\"", c.name());
+            let g = c.function();
+            let f = Function::compile(&[g.clone()], &args).map_err(sym(what.clone()))?;
+            nodal.push(NodalConstraint {
+                name: c.name().to_string(),
+                function: f,
+                nodes: nodes.clone(),
+                kind: NodalKind::Inequality,
+            });
+            if c.is_equality() {
+                let f = Function::compile(&[-g], &args).map_err(sym(what))?;
+                nodal.push(NodalConstraint {
+                    name: format!("{} (reverse)", c.name()),
+                    function: f,
+                    nodes,
+                    kind: NodalKind::Inequality,
+                });
+            }
+        }
+        for b in &self.balls {
+            let what = format!("ball \"{}\"", b.name);
+            if !(b.radius.is_finite() && b.radius > 0.0) {
+                return Err(bad(what, format!("radius {} must be a positive number", b.radius)));
+            }
+            if b.nodes.is_empty() {
+                return Err(bad(what, "no nodes"));
+            }
+            if let Some(k) = b.nodes.iter().find(|&&k| k >= nn) {
+                return Err(bad(what, format!("node {k} is beyond the last node {}", nn - 1)));
+            }
+            nodal.push(NodalConstraint {
+                name: b.name.clone(),
+                function: Function::compile(&[b.g.clone()], &args).map_err(sym(what))?,
+                nodes: b.nodes.clone(),
+                kind: NodalKind::Ball { radius: b.radius },
+            });
+        }
+        // Outputs.
+        let mut outputs = Vec::new();
+        let mut off = 0;
+        for (name, e) in &self.outputs {
+            let what = format!("output \"{name}\"");
+            if outputs.iter().any(|b: &Block| &b.name == name) || self.is_variable_name(name) {
+                return Err(bad(what, "name already used"));
+            }
+            let size = e.shape().map_err(sym(what))?.numel();
+            outputs.push(Block { name: name.clone(), offset: off, size });
+            off += size;
+        }
+        let output_fn = if self.outputs.is_empty() {
+            None
+        } else {
+            let exprs: Vec<Expr> = self.outputs.iter().map(|(_, e)| e.clone()).collect();
+            Some(Function::compile(&exprs, &args).map_err(sym("outputs"))?)
+        };
+        // Bounds and boundary conditions.
+        let mut x_min: Vec<f64> = self.states.iter().flat_map(|s| s.min.clone()).collect();
+        let mut x_max: Vec<f64> = self.states.iter().flat_map(|s| s.max.clone()).collect();
+        x_min.extend(vec![0.0; groups.len()]);
+        x_max.extend(vec![f64::INFINITY; groups.len()]);
+        let fixed = |b: &Boundary| if let Boundary::Fixed(v) = b { Some(*v) } else { None };
+        let mut x_initial: Vec<Option<f64>> =
+            self.states.iter().flat_map(|s| s.initial.iter().map(fixed)).collect();
+        x_initial.extend(vec![Some(0.0); groups.len()]);
+        let mut x_final: Vec<Option<f64>> =
+            self.states.iter().flat_map(|s| s.terminal.iter().map(fixed)).collect();
+        x_final.extend(vec![None; groups.len()]);
+        let final_cost: Vec<(usize, f64)> = self
+            .states
+            .iter()
+            .flat_map(|s| s.terminal.iter())
+            .enumerate()
+            .filter_map(|(i, b)| match b {
+                Boundary::Minimize => Some((i, 1.0)),
+                Boundary::Maximize => Some((i, -1.0)),
+                _ => None,
+            })
+            .collect();
+        let (time_weight, final_time) = match self.time {
+            Time::Fixed(t) => (0.0, (t, t)),
+            Time::Free { min, max, minimize, .. } => (if minimize { 1.0 } else { 0.0 }, (min, max)),
+        };
+        let ocp = Ocp {
+            dynamics,
+            nodes: nn,
+            x_min,
+            x_max,
+            u_min: self.controls.iter().flat_map(|c| c.min.clone()).collect(),
+            u_max: self.controls.iter().flat_map(|c| c.max.clone()).collect(),
+            x_initial,
+            x_final,
+            s_min: s_lo,
+            s_max: s_hi,
+            final_time,
+            time_weight,
+            final_cost,
+            increments: groups
+                .iter()
+                .enumerate()
+                .map(|(i, (g, eps))| (n_named + i, *eps, g.first, g.last))
+                .collect(),
+            nodal,
+        };
+        let guess = self.guess(&ocp, n, &settings)?;
+        let blocks = |names: Vec<(String, usize)>| {
+            let mut off = 0;
+            names
+                .into_iter()
+                .map(|(name, size)| {
+                    let b = Block { name, offset: off, size };
+                    off += size;
+                    b
+                })
+                .collect::<Vec<_>>()
+        };
+        Ok(CompiledProblem {
+            states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),
+            controls: blocks(self.controls.iter().map(|c| (c.name.clone(), c.size())).collect()),
+            outputs,
+            output_fn,
+            ptr: Ptr::new(ocp, settings.clone()),
+            settings,
+            guess,
+        })
+    }
+
+    fn is_variable_name(&self, name: &str) -> bool {
+        name == "time"
+            || self.states.iter().any(|s| s.name == name)
+            || self.controls.iter().any(|c| c.name == name)
+    }
+
+    /// Names, sizes, bounds, boundary conditions and guesses of states and controls.
+    fn check_variables(&self) -> Result<(), ProblemError> {
+        let nn = self.nodes;
+        if self.states.is_empty() {
+            return Err(bad("states", "the problem has none"));
+        }
+        if self.dynamics.len() != self.states.len() {
+            return Err(bad(
+                "dynamics",
+                format!(
+                    "{} right-hand sides for {} states",
+                    self.dynamics.len(),
+                    self.states.len()
+                ),
+            ));
+        }
+        let mut names: Vec<&str> = vec!["time"];
+        let entries =
+            self.states.iter().map(|s| ("state", &s.name, &s.min, &s.max, &s.guess)).chain(
+                self.controls.iter().map(|c| ("control", &c.name, &c.min, &c.max, &c.guess)),
+            );
+        for (kind, name, min, max, guess) in entries {
+            let what = format!("{kind} \"{name}\"");
+            if name.is_empty() || name.starts_with('_') {
+                return Err(bad(what, "names must be non-empty and not start with '_'"));
+            }
+            if names.contains(&name.as_str()) {
+                return Err(bad(what, "name already used"));
+            }
+            names.push(name);
+            let size = min.len();
+            if size == 0 || max.len() != size {
+                return Err(bad(what, format!("{} lower and {} upper bounds", size, max.len())));
+            }
+            for i in 0..size {
+                if min[i].is_nan() || max[i].is_nan() || min[i] > max[i] {
+                    return Err(bad(
+                        what,
+                        format!("bounds [{}, {}] of component {i}", min[i], max[i]),
+                    ));
+                }
+            }
+            if let Some(g) = guess {
+                if g.len() != nn * size {
+                    return Err(bad(
+                        what,
+                        format!("guess has {} entries, expected {}", g.len(), nn * size),
+                    ));
+                }
+                if let Some(i) = g.iter().position(|v| !v.is_finite()) {
+                    return Err(bad(what, format!("guess entry {i} is not finite")));
+                }
+            }
+        }
+        for (st, f) in self.states.iter().zip(&self.dynamics) {
+            let what = format!("state \"{}\"", st.name);
+            for (which, conds) in [("initial", &st.initial), ("final", &st.terminal)] {
+                if conds.len() != st.size() {
+                    return Err(bad(
+                        &what,
+                        format!("{} {which} conditions for {} components", conds.len(), st.size()),
+                    ));
+                }
+                for (i, c) in conds.iter().enumerate() {
+                    match *c {
+                        Boundary::Fixed(v)
+                            if !(v.is_finite() && st.min[i] <= v && v <= st.max[i]) =>
+                        {
+                            return Err(bad(
+                                &what,
+                                format!(
+                                    "{which} value {v} of component {i} is outside [{}, {}]",
+                                    st.min[i], st.max[i]
+                                ),
+                            ));
+                        }
+                        Boundary::Minimize | Boundary::Maximize if which == "initial" => {
+                            return Err(bad(
+                                &what,
+                                "only final conditions can be minimized or maximized",
+                            ));
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            let len = f.shape().map_err(sym(format!("dynamics of \"{}\"", st.name)))?.numel();
+            if len != st.size() {
+                return Err(bad(
+                    format!("dynamics of \"{}\"", st.name),
+                    format!("{len} entries for a state of {}", st.size()),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The dilation bounds `(s_min, s_max)` after checking the time settings.
+    fn check_time(&self) -> Result<(f64, f64), ProblemError> {
+        let t_max = match self.time {
+            Time::Fixed(t) => {
+                if !(t.is_finite() && t > 0.0) {
+                    return Err(bad("time", format!("fixed final time {t} must be positive")));
+                }
+                t
+            }
+            Time::Free { min, max, guess, .. } => {
+                if !(min.is_finite() && max.is_finite() && 0.0 <= min && min < max) {
+                    return Err(bad(
+                        "time",
+                        format!("bounds [{min}, {max}] must be finite with 0 ≤ min < max"),
+                    ));
+                }
+                if !(min <= guess && guess <= max) {
+                    return Err(bad("time", format!("guess {guess} outside [{min}, {max}]")));
+                }
+                max
+            }
+        };
+        let (lo, hi) = self.dilation.unwrap_or((t_max / 40.0, 5.0 * t_max));
+        if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
+            return Err(bad("dilation", format!("bounds [{lo}, {hi}] must satisfy 0 < min < max")));
+        }
+        Ok((lo, hi))
+    }
+
+    /// The guess: states and controls by name, uniform dilations, CTCS integrals along it.
+    fn guess(&self, ocp: &Ocp, n: usize, settings: &PtrSettings) -> Result<Guess, ProblemError> {
+        let nn = self.nodes;
+        let m: usize = self.controls.iter().map(Control::size).sum();
+        let mut x = vec![0.0; nn * n];
+        let mut off = 0;
+        for st in &self.states {
+            for i in 0..st.size() {
+                let start = match st.initial[i] {
+                    Boundary::Fixed(v) => Some(v),
+                    _ => None,
+                };
+                let end = match st.terminal[i] {
+                    Boundary::Fixed(v) => Some(v),
+                    _ => None,
+                };
+                let (a, b) = match (start, end) {
+                    (Some(a), Some(b)) => (a, b),
+                    (Some(a), None) => (a, a),
+                    (None, Some(b)) => (b, b),
+                    (None, None) => {
+                        (0.0f64.clamp(st.min[i], st.max[i]), 0.0f64.clamp(st.min[i], st.max[i]))
+                    }
+                };
+                for k in 0..nn {
+                    x[k * n + off + i] = match &st.guess {
+                        Some(g) => g[k * st.size() + i],
+                        None => a + (b - a) * k as f64 / (nn - 1) as f64,
+                    };
+                }
+            }
+            off += st.size();
+        }
+        let mut u = vec![0.0; nn * m];
+        let mut off = 0;
+        for c in &self.controls {
+            for k in 0..nn {
+                for i in 0..c.size() {
+                    u[k * m + off + i] = match &c.guess {
+                        Some(g) => g[k * c.size() + i],
+                        None => 0.0f64.clamp(c.min[i], c.max[i]),
+                    };
+                }
+            }
+            off += c.size();
+        }
+        let t = match self.time {
+            Time::Fixed(t) => t,
+            Time::Free { guess, .. } => guess,
+        };
+        let s = vec![t.clamp(ocp.s_min, ocp.s_max); nn];
+        // The CTCS integrals along the guess (no defects in those rows from the start).
+        let named: usize = self.states.iter().map(State::size).sum();
+        if n > named {
+            let d = &ocp.dynamics;
+            let mut ws = d.workspace();
+            let mut out = d.output(nn);
+            d.discretize(&x, &u, &s, &settings.discretization, &mut ws, &mut out)
+                .map_err(PtrError::from)?;
+            for k in 0..nn - 1 {
+                for r in named..n {
+                    x[(k + 1) * n + r] = out.x_prop[k * n + r].max(0.0);
+                }
+            }
+        }
+        Ok((x, u, s))
+    }
+}
+
+impl CompiledProblem {
+    /// The underlying solver (its [`Ocp`], step API and parameters).
+    pub fn ptr(&mut self) -> &mut Ptr {
+        &mut self.ptr
+    }
+
+    /// The prepared guess `(x, u, s)` (N×n with the CTCS integrals, N×m, N).
+    pub fn guess(&self) -> (&[f64], &[f64], &[f64]) {
+        (&self.guess.0, &self.guess.1, &self.guess.2)
+    }
+
+    /// Replaces the guess of state or control `name` (N × size, row-major); the CTCS
+    /// integrals keep their values.
+    ///
+    /// # Errors
+    /// An unknown name or a guess of the wrong length.
+    pub fn set_guess(&mut self, name: &str, values: &[f64]) -> Result<(), ProblemError> {
+        let nn = self.ptr.ocp().nodes;
+        let (n, m) = (self.ptr.ocp().dynamics.n_x(), self.ptr.ocp().dynamics.n_u());
+        let (block, target, width) = if let Some(b) = self.states.iter().find(|b| b.name == name) {
+            (b, &mut self.guess.0, n)
+        } else if let Some(b) = self.controls.iter().find(|b| b.name == name) {
+            (b, &mut self.guess.1, m)
+        } else {
+            return Err(bad(format!("guess \"{name}\""), "no state or control has this name"));
+        };
+        if values.len() != nn * block.size {
+            return Err(bad(
+                format!("guess \"{name}\""),
+                format!("{} entries, expected {}", values.len(), nn * block.size),
+            ));
+        }
+        for k in 0..nn {
+            target[k * width + block.offset..k * width + block.offset + block.size]
+                .copy_from_slice(&values[k * block.size..(k + 1) * block.size]);
+        }
+        Ok(())
+    }
+
+    /// Replaces the dilation guess (N values; segment k lasts `s_k/(N − 1)`).
+    ///
+    /// # Errors
+    /// A wrong length or non-positive values.
+    pub fn set_dilation_guess(&mut self, s: &[f64]) -> Result<(), ProblemError> {
+        if s.len() != self.guess.2.len() || s.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(bad(
+                "dilation guess",
+                format!("need {} positive values", self.guess.2.len()),
+            ));
+        }
+        self.guess.2.copy_from_slice(s);
+        Ok(())
+    }
+
+    /// Sets a parameter everywhere it is read (dynamics, constraints, outputs); nothing
+    /// recompiles.
+    ///
+    /// # Errors
+    /// An unknown parameter or an unusable value.
+    pub fn set_parameter(&mut self, name: &str, value: &[f64]) -> Result<usize, ProblemError> {
+        let mut count = match self.ptr.set_parameter(name, value) {
+            Ok(c) => c,
+            Err(PtrError::UnknownParameter(_)) => 0,
+            Err(e) => return Err(e.into()),
+        };
+        if let Some(f) = self.output_fn.as_mut()
+            && f.parameter_names().any(|p| p == name)
+        {
+            f.set_parameter(name, value).map_err(sym(format!("parameter \"{name}\"")))?;
+            count += 1;
+        }
+        if count == 0 {
+            return Err(PtrError::UnknownParameter(name.to_string()).into());
+        }
+        Ok(count)
+    }
+
+    /// Solves from the prepared guess.
+    ///
+    /// # Errors
+    /// Input errors only; solver outcomes are the solution's `status`.
+    pub fn solve(&mut self) -> Result<Solution, ProblemError> {
+        self.solve_with(|_, _| {})
+    }
+
+    /// Solves from the prepared guess, calling `observer` after every iteration (see
+    /// [`Ptr::solve_with`]).
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_with(
+        &mut self,
+        observer: impl FnMut(&Iteration, &Trajectory<'_>),
+    ) -> Result<Solution, ProblemError> {
+        let t0 = Instant::now();
+        let (x, u, s) = (self.guess.0.clone(), self.guess.1.clone(), self.guess.2.clone());
+        let r = self.ptr.solve_with(&x, &u, &s, observer)?;
+        let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.solution(&r, solve_ms)
+    }
+
+    /// Uses a solution's nodal trajectory as the next guess (warm start after a parameter
+    /// change).
+    ///
+    /// # Errors
+    /// A solution of another problem.
+    pub fn warm_start(&mut self, r: &PtrResult) -> Result<(), ProblemError> {
+        if r.x.len() != self.guess.0.len()
+            || r.u.len() != self.guess.1.len()
+            || r.s.len() != self.guess.2.len()
+        {
+            return Err(bad("warm start", "the result belongs to another problem"));
+        }
+        self.guess.0.copy_from_slice(&r.x);
+        self.guess.1.copy_from_slice(&r.u);
+        self.guess.2.copy_from_slice(&r.s);
+        Ok(())
+    }
+
+    /// The solver's last result (for [`warm_start`](Self::warm_start)).
+    pub fn last_result(&mut self) -> Option<PtrResult> {
+        self.ptr.result()
+    }
+
+    /// Post-processing: named nodal and dense trajectories with the algebraic outputs.
+    fn solution(&mut self, r: &PtrResult, solve_ms: f64) -> Result<Solution, ProblemError> {
+        let t0 = Instant::now();
+        let ocp = self.ptr.ocp();
+        let (n, m, nn) = (ocp.dynamics.n_x(), ocp.dynamics.n_u(), ocp.nodes);
+        let dtau = 1.0 / (nn - 1) as f64;
+        let mut node_times = vec![0.0; nn];
+        for k in 1..nn {
+            node_times[k] = node_times[k - 1] + r.s[k - 1] * dtau;
+        }
+        let dense = ocp
+            .dynamics
+            .propagate_dense(&r.x[..n], &r.u, &r.s, self.settings.dense_dt)
+            .map_err(PtrError::from)?;
+        let nodes = self.tables(&node_times, &r.x, &r.u, n, m)?;
+        let trajectory = self.tables(&dense.time, &dense.x, &dense.u, n, m)?;
+        Ok(Solution {
+            status: r.status.as_str().to_string(),
+            final_time: r.final_time,
+            iterations: r.history.len(),
+            nodes,
+            trajectory,
+            history: r.history.clone(),
+            timings: SolutionTimings {
+                discretization_ms: r.timings.discretization_ms,
+                subproblem_ms: r.timings.subproblem_ms,
+                solve_ms,
+                post_processing_ms: t0.elapsed().as_secs_f64() * 1e3,
+            },
+            violations: r.violations.clone(),
+            max_violation: r.max_violation.clone(),
+        })
+    }
+
+    /// Name → rows for samples `(times, x rows of n, u rows of m)`.
+    fn tables(
+        &self,
+        times: &[f64],
+        x: &[f64],
+        u: &[f64],
+        n: usize,
+        m: usize,
+    ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        let mut t = BTreeMap::new();
+        t.insert("time".to_string(), times.iter().map(|&v| vec![v]).collect());
+        let rows = |data: &[f64], width: usize, b: &Block| -> Vec<Vec<f64>> {
+            data.chunks(width).map(|r| r[b.offset..b.offset + b.size].to_vec()).collect()
+        };
+        for b in &self.states {
+            t.insert(b.name.clone(), rows(x, n, b));
+        }
+        for b in &self.controls {
+            t.insert(b.name.clone(), rows(u, m, b));
+        }
+        if let Some(f) = &self.output_fn {
+            let mut ws = f.workspace();
+            let mut input = vec![0.0; n + m];
+            let mut values = vec![0.0; f.n_outputs()];
+            let mut cols: Vec<Vec<Vec<f64>>> =
+                vec![Vec::with_capacity(times.len()); self.outputs.len()];
+            for (xr, ur) in x.chunks(n).zip(u.chunks(m.max(1))) {
+                input[..n].copy_from_slice(xr);
+                input[n..].copy_from_slice(&ur[..m]);
+                f.eval(&input, &mut ws, &mut values, None).map_err(sym("outputs"))?;
+                for (col, b) in cols.iter_mut().zip(&self.outputs) {
+                    col.push(values[b.offset..b.offset + b.size].to_vec());
+                }
+            }
+            for (col, b) in cols.into_iter().zip(&self.outputs) {
+                t.insert(b.name.clone(), col);
+            }
+        }
+        Ok(t)
+    }
+}
+
+impl Solution {
+    /// Rows of `name` at the nodes (`None` if there is no such series).
+    pub fn at_nodes(&self, name: &str) -> Option<&[Vec<f64>]> {
+        self.nodes.get(name).map(Vec::as_slice)
+    }
+
+    /// Rows of `name` on the dense trajectory.
+    pub fn dense(&self, name: &str) -> Option<&[Vec<f64>]> {
+        self.trajectory.get(name).map(Vec::as_slice)
+    }
+
+    /// Whether the solve converged.
+    pub fn converged(&self) -> bool {
+        self.status == "converged"
+    }
+}
