@@ -17,6 +17,6 @@ pub use problem::{
 };
 pub use ptr::{
     Iteration, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
-    PtrSettings, PtrStatus, SettingsError, SubproblemSettings, Timings, Trajectory,
-    TrustRegionUpdate, Violation,
+    PtrSettings, PtrStatus, SettingsError, SubproblemDimensions, SubproblemSettings, Timings,
+    Trajectory, TrustRegionUpdate, Violation,
 };

@@ -667,6 +667,18 @@ impl Ptr {
         }
     }
 
+    /// Sizes of the convex subproblem (fixed at construction).
+    pub fn dimensions(&self) -> SubproblemDimensions {
+        SubproblemDimensions {
+            variables: self.n_vars,
+            equality_rows: self.n_zero,
+            inequality_rows: self.n_nonneg,
+            second_order_cones: self.socs.len(),
+            cone_rows: self.socs.iter().sum(),
+            nonzeros: self.a_rowval.len(),
+        }
+    }
+
     /// The problem.
     pub fn ocp(&self) -> &Ocp {
         &self.ocp
@@ -1227,6 +1239,23 @@ impl Ptr {
         st.history.push(record.clone());
         record
     }
+}
+
+/// Sizes of the convex subproblem `min ½zᵀPz + qᵀz s.t. Az + s = b, s ∈ K`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct SubproblemDimensions {
+    /// Unknowns (states, controls, dilations, virtual controls and buffers).
+    pub variables: usize,
+    /// Rows of the zero cone (linearized dynamics, boundary conditions).
+    pub equality_rows: usize,
+    /// Rows of the nonnegative cone (bounds, CTCS increments, linearized nodal constraints).
+    pub inequality_rows: usize,
+    /// Number of second-order cones (balls).
+    pub second_order_cones: usize,
+    /// Rows in second-order cones.
+    pub cone_rows: usize,
+    /// Structural nonzeros of `A`.
+    pub nonzeros: usize,
 }
 
 /// The reference trajectory of a running solve (borrowed from the solver).
