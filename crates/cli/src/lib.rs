@@ -5,6 +5,10 @@ use clap::{Parser, Subcommand};
 
 pub mod commands;
 pub mod exit;
+pub mod output;
+pub mod pipeline;
+pub mod plot;
+pub mod task;
 
 /// Command-line arguments of the `armature` binary.
 #[derive(Debug, Parser)]
@@ -24,6 +28,10 @@ pub enum Command {
     Ik(commands::ik::IkArgs),
     /// Signed distances, witness points and gradients of capsule links and obstacles.
     Collide(commands::collide::CollideArgs),
+    /// Solve a task file: IK initialization, SCvx, dense trajectory; JSON, CSV, plots.
+    Solve(commands::solve::SolveArgs),
+    /// Solve a built-in example (the seed pick-and-place, with or without collision).
+    Demo(commands::demo::DemoArgs),
 }
 
 /// An error a command reports to the user (printed as `error: …`), with its exit code.
@@ -50,6 +58,8 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
         Command::Fk(args) => commands::fk::run(&args, out),
         Command::Ik(args) => commands::ik::run(&args, out),
         Command::Collide(args) => commands::collide::run(&args, out),
+        Command::Solve(args) => commands::solve::run(&args, out),
+        Command::Demo(args) => commands::demo::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

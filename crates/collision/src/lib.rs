@@ -13,5 +13,8 @@ pub use model::{
     CollisionModel, CollisionWorkspace, Link, Obstacle, ObstacleShape, Pair, PairKind, PairOptions,
     PairResult,
 };
-pub use scene::{Scene, scene_from_toml_str};
+pub use scene::{
+    BoxSpec, CapsuleSpec, HalfSpaceSpec, LinkSpec, ObstacleSpec, Scene, SphereSpec,
+    scene_from_toml_str,
+};
 pub use symbolic_distance::PairDistance;

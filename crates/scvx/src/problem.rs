@@ -216,11 +216,14 @@ pub struct CtcsOptions {
     pub penalty: Penalty,
     /// Allowed increment of the integral per segment. Default 1e-4.
     pub eps: f64,
+    /// Group label (OpenSCvx's `idx`): constraints with the same node interval, penalty, ε
+    /// and group share one integral state. Default 0.
+    pub group: usize,
 }
 
 impl Default for CtcsOptions {
     fn default() -> Self {
-        CtcsOptions { penalty: Penalty::SquaredRelu, eps: 1e-4 }
+        CtcsOptions { penalty: Penalty::SquaredRelu, eps: 1e-4, group: 0 }
     }
 }
 
@@ -292,7 +295,7 @@ impl Problem {
             constraints: Vec::new(),
             balls: Vec::new(),
             outputs: Vec::new(),
-            state_bounds_ctcs: Some(CtcsOptions { penalty: Penalty::Relu, eps: 1e-6 }),
+            state_bounds_ctcs: Some(CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 }),
             dilation: None,
         }
     }
@@ -346,6 +349,8 @@ struct Block {
 #[derive(Debug)]
 pub struct CompiledProblem {
     ptr: Ptr,
+    /// `(internal state name, what its integral carries)` per CTCS group.
+    ctcs_names: Vec<(String, String)>,
     settings: PtrSettings,
     states: Vec<Block>,
     controls: Vec<Block>,
@@ -412,32 +417,45 @@ impl Problem {
         self.check_variables()?;
         let (s_lo, s_hi) = self.check_time()?;
         // CTCS groups by (interval, penalty, ε), in order of first appearance.
-        let mut groups: Vec<(CtcsGroup, f64)> = Vec::new();
-        let mut add = |g: Expr, first: usize, last: usize, o: CtcsOptions| match groups
-            .iter_mut()
-            .find(|(c, eps)| {
-                (c.first, c.last, c.penalty) == (first, last, o.penalty) && *eps == o.eps
-            }) {
-            Some((c, _)) => c.constraints.push(g),
-            None => groups
-                .push((CtcsGroup { constraints: vec![g], first, last, penalty: o.penalty }, o.eps)),
+        let mut groups: Vec<(CtcsGroup, CtcsOptions)> = Vec::new();
+        // What each group integrates, for violation reports.
+        let mut group_names: Vec<Vec<String>> = Vec::new();
+        let mut add = |g: Expr, first: usize, last: usize, o: CtcsOptions, name: &str| {
+            let i = match groups
+                .iter()
+                .position(|(c, go)| (c.first, c.last) == (first, last) && *go == o)
+            {
+                Some(i) => i,
+                None => {
+                    groups.push((
+                        CtcsGroup { constraints: Vec::new(), first, last, penalty: o.penalty },
+                        o,
+                    ));
+                    group_names.push(Vec::new());
+                    groups.len() - 1
+                }
+            };
+            groups[i].0.constraints.push(g);
+            if !group_names[i].iter().any(|n| n == name) {
+                group_names[i].push(name.to_string());
+            }
         };
         if let Some(o) = self.state_bounds_ctcs {
             for st in &self.states {
                 let e = st.expr();
                 // Whole vectors where every component is bounded, else per component.
                 if st.max.iter().all(|v| v.is_finite()) {
-                    add(&e - Expr::constant_vector(&st.max), 0, nn - 1, o);
+                    add(&e - Expr::constant_vector(&st.max), 0, nn - 1, o, "state bounds");
                 } else {
                     for i in (0..st.size()).filter(|&i| st.max[i].is_finite()) {
-                        add(e.at(i) - st.max[i], 0, nn - 1, o);
+                        add(e.at(i) - st.max[i], 0, nn - 1, o, "state bounds");
                     }
                 }
                 if st.min.iter().all(|v| v.is_finite()) {
-                    add(Expr::constant_vector(&st.min) - &e, 0, nn - 1, o);
+                    add(Expr::constant_vector(&st.min) - &e, 0, nn - 1, o, "state bounds");
                 } else {
                     for i in (0..st.size()).filter(|&i| st.min[i].is_finite()) {
-                        add(Expr::scalar(st.min[i]) - e.at(i), 0, nn - 1, o);
+                        add(Expr::scalar(st.min[i]) - e.at(i), 0, nn - 1, o, "state bounds");
                     }
                 }
             }
@@ -452,7 +470,7 @@ impl Problem {
             match c.timing() {
                 Timing::Continuous(range) => {
                     let (a, b) = range.unwrap_or((0, nn - 1));
-                    add(c.function().clone(), a, b, pc.ctcs);
+                    add(c.function().clone(), a, b, pc.ctcs, c.name());
                 }
                 Timing::Nodal(nodes) => nodal_specs.push((c, nodes.resolve(nn))),
             }
@@ -585,7 +603,7 @@ impl Problem {
             increments: groups
                 .iter()
                 .enumerate()
-                .map(|(i, (g, eps))| (n_named + i, *eps, g.first, g.last))
+                .map(|(i, (g, o))| (n_named + i, o.eps, g.first, g.last))
                 .collect(),
             nodal,
         };
@@ -601,7 +619,25 @@ impl Problem {
                 })
                 .collect::<Vec<_>>()
         };
+        let ctcs_names = group_names
+            .iter()
+            .enumerate()
+            .map(|(i, names)| {
+                let (g, o) = &groups[i];
+                (
+                    format!("dynamics of _ctcs_{i}"),
+                    format!(
+                        "continuous-time {} (nodes {}..={}, ε = {:e})",
+                        names.join(", "),
+                        g.first,
+                        g.last,
+                        o.eps
+                    ),
+                )
+            })
+            .collect();
         Ok(CompiledProblem {
+            ctcs_names,
             states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),
             controls: blocks(self.controls.iter().map(|c| (c.name.clone(), c.size())).collect()),
             outputs,
@@ -952,6 +988,16 @@ impl CompiledProblem {
             .propagate_dense(&r.x[..n], &r.u, &r.s, self.settings.dense_dt)
             .map_err(PtrError::from)?;
         let nodes = self.tables(&node_times, &r.x, &r.u, n, m)?;
+        // Violations of the CTCS integrals named by what they carry.
+        let rename = |v: &Violation| {
+            let mut v = v.clone();
+            if let Some((_, name)) =
+                self.ctcs_names.iter().find(|(internal, _)| *internal == v.constraint)
+            {
+                v.constraint.clone_from(name);
+            }
+            v
+        };
         let trajectory = self.tables(&dense.time, &dense.x, &dense.u, n, m)?;
         Ok(Solution {
             status: r.status.as_str().to_string(),
@@ -966,8 +1012,8 @@ impl CompiledProblem {
                 solve_ms,
                 post_processing_ms: t0.elapsed().as_secs_f64() * 1e3,
             },
-            violations: r.violations.clone(),
-            max_violation: r.max_violation.clone(),
+            violations: r.violations.iter().map(rename).collect(),
+            max_violation: r.max_violation.as_ref().map(rename),
         })
     }
 

@@ -33,7 +33,7 @@ fn seed_problem(s: &seed::Seed) -> Problem {
     let down = SO3::from_quaternion_wxyz(seed::Q_DOWN).unwrap();
     let log = Expr::from_matrix(&down.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
     let ori = log.norm2();
-    let limits = CtcsOptions { penalty: Penalty::Relu, eps: 1e-6 };
+    let limits = CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 };
     let mut constraints: Vec<ProblemConstraint> = vec![ProblemConstraint {
         constraint: (-p_ee.at(2)).le(0.0).ctcs().named("table"),
         ctcs: limits,

@@ -1,6 +1,8 @@
 //! One module per subcommand: its argument struct and its `run`.
 
 pub mod collide;
+pub mod demo;
 pub mod fk;
 pub mod ik;
 pub mod robot;
+pub mod solve;

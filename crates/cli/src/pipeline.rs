@@ -1,0 +1,446 @@
+//! The main job: task file → robot chain → symbolic FK → task constraints → IK guess →
+//! SCvx problem → solution.
+
+use std::path::Path;
+
+use armature_collision::{CollisionModel, Scene};
+use armature_ik::{IkSettings, IkTrajectory, JointSpline, Keyframe, Mode, ik_interpolation};
+use armature_kinematics::Chain;
+use armature_lie::SO3;
+use armature_scvx::{
+    Ball, CompiledProblem, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, PtrSettings,
+    State, Time,
+};
+use armature_symbolic::{Expr, Shape};
+use serde::Serialize;
+
+use crate::task::{Limit, LocatedError, OrientationValue, Source, TaskFile, resolve_robot};
+
+/// A waypoint as planned: where and when.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedWaypoint {
+    /// Its name.
+    pub name: String,
+    /// Its node.
+    pub node: usize,
+    /// Position (m).
+    pub position: [f64; 3],
+    /// Radius of its ball (m).
+    pub tolerance: f64,
+}
+
+/// Everything the task defines, checked, with the compiled problem's inputs.
+#[derive(Debug)]
+pub struct Plan {
+    /// The robot.
+    pub chain: Chain,
+    /// Node count N.
+    pub nodes: usize,
+    /// Waypoints with their nodes.
+    pub waypoints: Vec<PlannedWaypoint>,
+    /// Velocity limits (rad/s).
+    pub velocity_limit: Vec<f64>,
+    /// Torque limits (N·m).
+    pub torque_limit: Vec<f64>,
+    /// Table height, if any.
+    pub table_height: Option<f64>,
+    /// The collision model, if any.
+    pub collision: Option<CollisionModel>,
+    /// The SCvx problem.
+    pub problem: Problem,
+    /// Dilation guess (N values).
+    pub dilation_guess: Vec<f64>,
+    /// The IK initialization.
+    pub ik: IkTrajectory,
+    /// Solver settings.
+    pub settings: PtrSettings,
+}
+
+/// Name of the parameter holding waypoint `name`'s position.
+pub fn waypoint_parameter(name: &str) -> String {
+    format!("waypoint.{name}")
+}
+
+/// Checks a task against its robot and builds the problem and its guess.
+///
+/// # Errors
+/// The first problem found, as `file:line:col: reason`.
+pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Plan, LocatedError> {
+    let robot = &task.robot;
+    let spec = resolve_robot(robot.name.get_ref(), path);
+    let chain = armature_kinematics::load_robot(&spec, robot.base.as_deref(), robot.tip.as_deref())
+        .map_err(|e| src.error(&robot.name, e.to_string()))?;
+    let n = chain.dof();
+    // Dynamics and limits.
+    let inertia = robot.inertia.get_ref();
+    if inertia.len() != n {
+        return Err(src.error(&robot.inertia, format!("{} inertias for {n} joints", inertia.len())));
+    }
+    if let Some(i) = inertia.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+        return Err(
+            src.error(&robot.inertia, format!("inertia {} of joint {i} must be > 0", inertia[i]))
+        );
+    }
+    let limit = |what: &str,
+                 given: &Option<toml::Spanned<Limit>>,
+                 robot_value: &dyn Fn(usize) -> Option<f64>| {
+        let (values, at) = match given {
+            Some(l) => (
+                match l.get_ref() {
+                    Limit::All(v) => vec![*v; n],
+                    Limit::Each(v) => v.clone(),
+                },
+                l.span().start,
+            ),
+            None => {
+                let v: Option<Vec<f64>> = (0..n).map(robot_value).collect();
+                let v = v.ok_or_else(|| {
+                    src.error(
+                        &robot.name,
+                        format!("the robot has no {what} for every joint: give {what} in [robot]"),
+                    )
+                })?;
+                (v, robot.name.span().start)
+            }
+        };
+        if values.len() != n {
+            return Err(src.error_at(at, format!("{what}: {} values for {n} joints", values.len())));
+        }
+        if let Some(i) = values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(src.error_at(at, format!("{what} {} of joint {i} must be > 0", values[i])));
+        }
+        Ok(values)
+    };
+    let velocity_limit =
+        limit("velocity_limit", &robot.velocity_limit, &|i| chain.joints()[i].limits.velocity)?;
+    let torque_limit =
+        limit("torque_limit", &robot.torque_limit, &|i| chain.joints()[i].limits.effort)?;
+    // Time.
+    let t_max = *task.time.max.get_ref();
+    if !(t_max.is_finite() && t_max > 0.0) {
+        return Err(src.error(&task.time.max, format!("max {t_max} must be a positive number")));
+    }
+    let t_min = task.time.min.as_ref().map_or(0.0, |m| *m.get_ref());
+    if !(t_min.is_finite() && (0.0..t_max).contains(&t_min)) {
+        let at = task.time.min.as_ref().map_or(task.time.max.span().start, |m| m.span().start);
+        return Err(src.error_at(at, format!("min {t_min} must be in [0, max)")));
+    }
+    // Nodes and waypoints.
+    let w = &task.waypoints;
+    if w.len() < 2 {
+        return Err(
+            src.error_at(0, format!("need at least 2 waypoints (start and goal), got {}", w.len()))
+        );
+    }
+    let (nodes, per_segment) = match (&task.nodes.count, &task.nodes.per_segment) {
+        (Some(c), None) => {
+            if *c.get_ref() < 2 {
+                return Err(src.error(c, "count must be at least 2"));
+            }
+            (*c.get_ref(), None)
+        }
+        (None, per) => {
+            let p = per.as_ref().map_or(2, |p| *p.get_ref());
+            if p == 0 {
+                return Err(
+                    src.error(per.as_ref().expect("0 was given"), "per_segment must be at least 1")
+                );
+            }
+            (p * (w.len() - 1) + 1, Some(p))
+        }
+        (Some(c), Some(_)) => {
+            return Err(src.error(c, "give either count or per_segment, not both"));
+        }
+    };
+    let mut waypoints: Vec<PlannedWaypoint> = Vec::new();
+    for (i, wp) in w.iter().enumerate() {
+        let name = wp.name.get_ref();
+        if name.is_empty() || waypoints.iter().any(|p| &p.name == name) {
+            return Err(
+                src.error(&wp.name, format!("waypoint name '{name}' is empty or used twice"))
+            );
+        }
+        let position = *wp.position.get_ref();
+        if position.iter().any(|v| !v.is_finite()) {
+            return Err(src.error(&wp.position, "position must be finite"));
+        }
+        let tolerance = wp.tolerance.as_ref().map_or(0.01, |t| *t.get_ref());
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            let t = wp.tolerance.as_ref().expect("the default is positive");
+            return Err(src.error(t, format!("tolerance {tolerance} must be > 0")));
+        }
+        let node = match (&wp.node, per_segment) {
+            (Some(k), _) => *k.get_ref(),
+            (None, Some(p)) => i * p,
+            (None, None) => {
+                return Err(src.error(&wp.name, "with nodes.count every waypoint needs a node"));
+            }
+        };
+        let at = wp.node.as_ref().map_or(wp.name.span().start, |k| k.span().start);
+        if node >= nodes {
+            return Err(
+                src.error_at(at, format!("node {node} is beyond the last node {}", nodes - 1))
+            );
+        }
+        if let Some(prev) = waypoints.last()
+            && node <= prev.node
+        {
+            return Err(src.error_at(
+                at,
+                format!("node {node} does not come after '{}' (node {})", prev.name, prev.node),
+            ));
+        }
+        if i == 0 && node != 0 {
+            return Err(src.error_at(at, "the first waypoint is the start: it must be at node 0"));
+        }
+        if i == w.len() - 1 && node != nodes - 1 {
+            return Err(src.error_at(
+                at,
+                format!("the last waypoint is the goal: it must be at node {}", nodes - 1),
+            ));
+        }
+        waypoints.push(PlannedWaypoint { name: name.clone(), node, position, tolerance });
+    }
+    let node_of =
+        |name: &toml::Spanned<String>| {
+            waypoints.iter().find(|p| &p.name == name.get_ref()).map(|p| p.node).ok_or_else(|| {
+                src.error(name, format!("no waypoint is named '{}'", name.get_ref()))
+            })
+        };
+    // Keyframes for the IK guess.
+    let mut keyframes = Vec::new();
+    for (wp, p) in w.iter().zip(&waypoints) {
+        let quaternion_wxyz = match wp.orientation.as_ref().map(|o| (o, o.get_ref())) {
+            None => None,
+            Some((_, OrientationValue::Word(s))) if s == "free" => None,
+            Some((o, OrientationValue::Word(s))) => {
+                return Err(
+                    src.error(o, format!("orientation '{s}': give [w, x, y, z] or \"free\""))
+                );
+            }
+            Some((o, OrientationValue::Quaternion(q))) => {
+                SO3::from_quaternion_wxyz(*q).map_err(|e| src.error(o, e.to_string()))?;
+                Some(*q)
+            }
+        };
+        keyframes.push(Keyframe { node: p.node, position: p.position, quaternion_wxyz });
+    }
+    // Orientation ranges.
+    let mut ranges = Vec::new();
+    for o in &task.orientation {
+        let r = SO3::from_quaternion_wxyz(*o.quaternion_wxyz.get_ref())
+            .map_err(|e| src.error(&o.quaternion_wxyz, e.to_string()))?;
+        let deg = *o.tolerance_deg.get_ref();
+        if !(deg.is_finite() && deg > 0.0 && deg < 180.0) {
+            return Err(
+                src.error(&o.tolerance_deg, format!("tolerance_deg {deg} must be in (0, 180)"))
+            );
+        }
+        let (a, b) = (node_of(&o.from)?, node_of(&o.to)?);
+        if a >= b {
+            return Err(src.error(
+                &o.to,
+                format!(
+                    "'{}' (node {b}) must come after '{}' (node {a})",
+                    o.to.get_ref(),
+                    o.from.get_ref()
+                ),
+            ));
+        }
+        ranges.push((r, deg, a, b, format!("{}..{}", o.from.get_ref(), o.to.get_ref())));
+    }
+    let table_height = match &task.table_height {
+        Some(h) if !h.get_ref().is_finite() => {
+            return Err(src.error(h, "table_height must be finite"));
+        }
+        h => h.as_ref().map(|h| *h.get_ref()),
+    };
+    let collision = match &task.collision {
+        None => None,
+        Some(c) => {
+            let spec = c.get_ref();
+            if !(spec.margin.is_finite() && spec.margin >= 0.0) {
+                return Err(src.error(c, format!("margin {} must be ≥ 0", spec.margin)));
+            }
+            let scene = Scene {
+                self_collision: spec.self_collision,
+                allowed: spec.allowed.clone(),
+                extra: spec.extra.clone(),
+                links: spec.links.clone(),
+                obstacles: spec.obstacles.clone(),
+            };
+            Some((scene.model(&chain).map_err(|e| src.error(c, e.to_string()))?, spec.margin))
+        }
+    };
+    let mode = match task.initialization.ik.get_ref().as_str() {
+        "sequential" => Mode::Sequential,
+        "parallel" => Mode::Parallel,
+        other => {
+            return Err(src.error(
+                &task.initialization.ik,
+                format!("ik '{other}': give \"sequential\" or \"parallel\""),
+            ));
+        }
+    };
+    let settings = settings(task, src)?;
+    // The IK guess, time-parameterized by a spline (zero end velocities).
+    let ik = ik_interpolation(
+        &chain,
+        &keyframes,
+        &vec![0.0; n],
+        &IkSettings { restarts: task.initialization.restarts, ..IkSettings::default() },
+        mode,
+    )
+    .map_err(|e| src.error_at(0, format!("IK initialization: {e}")))?;
+    let amax: Vec<f64> = (0..n).map(|j| torque_limit[j] / inertia[j]).collect();
+    let knots = JointSpline::time_optimal_knots(&ik.q, &velocity_limit)
+        .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
+    let spline = JointSpline::through_timed(&ik.q, &knots)
+        .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
+    let duration =
+        spline.min_duration(&velocity_limit, &amax).clamp(t_min.max(1e-3 * t_max), t_max);
+    let (qlo, qhi) = chain.position_limits();
+    let angle = State::new("angle", n)
+        .bounds(&qlo, &qhi)
+        .initial_value(&ik.q[0])
+        .guess(ik.q.iter().flatten().copied().collect());
+    let velocity = State::new("velocity", n)
+        .bounds(&velocity_limit.iter().map(|v| -v).collect::<Vec<_>>(), &velocity_limit)
+        .initial_value(&vec![0.0; n])
+        .final_value(&vec![0.0; n])
+        .guess((0..nodes).flat_map(|k| spline.velocity(k, duration)).collect());
+    let torque = Control::new("torque", n)
+        .bounds(&torque_limit.iter().map(|t| -t).collect::<Vec<_>>(), &torque_limit)
+        .guess(
+            (0..nodes)
+                .flat_map(|k| {
+                    let a = spline.acceleration(k, duration);
+                    (0..n).map(move |j| a[j] * inertia[j]).collect::<Vec<_>>()
+                })
+                .collect(),
+        );
+    let (a, v, tau) = (angle.expr(), velocity.expr(), torque.expr());
+    let fk = chain.symbolic_fk(&a).map_err(|e| src.error(&robot.name, e.to_string()))?;
+    let p_ee = fk.ee_position();
+    let limits = CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 };
+    let mut constraints: Vec<ProblemConstraint> = Vec::new();
+    if let Some(h) = table_height {
+        constraints.push(ProblemConstraint {
+            constraint: (Expr::scalar(h) - p_ee.at(2)).le(0.0).ctcs().named("table"),
+            ctcs: limits,
+        });
+    }
+    let mut balls: Vec<Ball> = waypoints
+        .iter()
+        .map(|p| Ball {
+            name: format!("waypoint {}", p.name),
+            g: &p_ee - Expr::parameter(&waypoint_parameter(&p.name), Shape::Vector(3), &p.position),
+            radius: p.tolerance,
+            nodes: vec![p.node],
+        })
+        .collect();
+    for (r, deg, first, last, name) in &ranges {
+        let log = Expr::from_matrix(&r.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
+        constraints.push(
+            (log.norm2() - deg.to_radians())
+                .le(0.0)
+                .ctcs()
+                .over(*first, *last)
+                .named(format!("orientation {name} within {deg}°"))
+                .into(),
+        );
+        balls.push(Ball {
+            name: format!("orientation {name} within {deg}° at the nodes"),
+            g: log,
+            radius: deg.to_radians(),
+            nodes: (*first..=*last).collect(),
+        });
+    }
+    if let Some((model, margin)) = &collision {
+        let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
+        for (pair, d) in model.symbolic_distances(&positions) {
+            constraints.push(ProblemConstraint {
+                constraint: (*margin - &d).le(0.0).ctcs().named(format!("clearance {pair}")),
+                // An integral of its own: summed into the limits' integral, the clearance
+                // violations of single pairs are drowned and the solve stalls.
+                ctcs: CtcsOptions { group: 1, ..limits },
+            });
+            constraints.push(
+                (*margin - &d).le(0.0).named(format!("clearance {pair} at the nodes")).into(),
+            );
+        }
+    }
+    let mut outputs = vec![("ee_position".to_string(), p_ee.clone())];
+    for (name, frame) in &fk.frames {
+        outputs.push((format!("T_{name}"), frame.clone()));
+    }
+    let inv: Vec<f64> = inertia.iter().map(|i| 1.0 / i).collect();
+    let problem = Problem {
+        dynamics: vec![v.clone(), &Expr::constant_vector(&inv) * &tau],
+        states: vec![angle, velocity],
+        controls: vec![torque],
+        time: Time::Free { min: t_min, max: t_max, guess: duration, minimize: task.time.minimize },
+        constraints,
+        balls,
+        outputs,
+        state_bounds_ctcs: Some(limits),
+        ..Problem::new(nodes)
+    };
+    let mut dilation_guess: Vec<f64> =
+        knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
+    dilation_guess.push(dilation_guess[nodes - 2]);
+    Ok(Plan {
+        chain,
+        nodes,
+        waypoints,
+        velocity_limit,
+        torque_limit,
+        table_height,
+        collision: collision.map(|(m, _)| m),
+        problem,
+        dilation_guess,
+        ik,
+        settings,
+    })
+}
+
+/// The task's algorithm settings over the defaults.
+fn settings(task: &TaskFile, src: Source<'_>) -> Result<PtrSettings, LocatedError> {
+    let s = &task.settings;
+    let mut p = PtrSettings::default();
+    if let Some(v) = s.max_iterations {
+        p.max_iterations = v;
+    }
+    if let Some(v) = s.substeps {
+        p.discretization.substeps = v;
+    }
+    if let Some(v) = s.eps_tr {
+        p.eps_tr = v;
+    }
+    if let Some(v) = s.eps_defect {
+        p.eps_defect = v;
+    }
+    if let Some(v) = s.eps_vb {
+        p.eps_vb = v;
+    }
+    if let Some(dt) = &s.dense_dt {
+        p.dense_dt = *dt.get_ref();
+        if !(p.dense_dt.is_finite() && p.dense_dt > 0.0) {
+            return Err(src.error(dt, format!("dense_dt {} must be > 0", p.dense_dt)));
+        }
+    }
+    p.validate().map_err(|e| src.error_at(0, format!("[settings]: {e}")))?;
+    Ok(p)
+}
+
+impl Plan {
+    /// Compiles the problem and sets the guess.
+    ///
+    /// # Errors
+    /// The problem layer's (a bug here rather than bad input: the plan was checked).
+    pub fn compile(&self) -> Result<CompiledProblem, armature_scvx::ProblemError> {
+        let mut c = self.problem.compile(self.settings.clone())?;
+        c.set_dilation_guess(&self.dilation_guess)?;
+        Ok(c)
+    }
+}

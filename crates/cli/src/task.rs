@@ -1,0 +1,325 @@
+//! Task files: what most users write — a robot, its simple dynamics, waypoints, orientation
+//! constraints, a table, obstacles, time, nodes, initialization and algorithm settings.
+//!
+//! ```toml
+//! [robot]
+//! name = "arm7"                  # built-in (arm7, ur5e), or a .toml screw table / .urdf path
+//! inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]   # q̈ = τ / I
+//! velocity_limit = 3.0           # one value or one per joint (default: the robot's)
+//! torque_limit = [8, 8, 4, 4, 2, 1, 0.5]
+//!
+//! [time]
+//! max = 4.0                      # free final time in [min, max], minimized by default
+//!
+//! [nodes]
+//! per_segment = 2                # waypoint k sits at node k·per_segment (or give `count`)
+//!
+//! [[waypoints]]
+//! name = "home"
+//! position = [0.69, 0.0, 0.34]
+//! orientation = [1.0, 0.0, 0.0, 0.0]   # [w, x, y, z] for the IK guess, or "free"
+//! tolerance = 0.01                     # the end effector passes within this distance (m)
+//!
+//! [[orientation]]                # gripper orientation held between two waypoints
+//! quaternion_wxyz = [0.7071068, 0.0, 0.7071068, 0.0]
+//! tolerance_deg = 5.0
+//! from = "pre_grasp"
+//! to = "place"
+//!
+//! table_height = 0.0             # the end effector stays above z = table_height
+//! ```
+//!
+//! Unknown keys are rejected; every error names `file:line:col` and the reason.
+
+use std::path::Path;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A parsed task file (values keep their positions in the file for error messages).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskFile {
+    /// The robot and its dynamics.
+    pub robot: RobotSpec,
+    /// Final time.
+    pub time: TimeSpec,
+    /// Node count or nodes per waypoint segment.
+    #[serde(default)]
+    pub nodes: NodesSpec,
+    /// Waypoints in order; the first is the start (the arm starts at rest there), the last
+    /// the goal (the arm ends at rest).
+    pub waypoints: Vec<WaypointSpec>,
+    /// Orientation constraints over waypoint ranges.
+    #[serde(default)]
+    pub orientation: Vec<OrientationSpec>,
+    /// The end effector stays above this height (m), in continuous time.
+    #[serde(default)]
+    pub table_height: Option<Spanned<f64>>,
+    /// Capsules, self-collision and obstacles.
+    #[serde(default)]
+    pub collision: Option<Spanned<CollisionSpec>>,
+    /// Initial guess.
+    #[serde(default)]
+    pub initialization: InitSpec,
+    /// Algorithm settings.
+    #[serde(default)]
+    pub settings: SettingsSpec,
+}
+
+/// The robot: kinematics and simple dynamics `q̈ = τ / I`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSpec {
+    /// A built-in name, or a path (relative to the task file) to a `.toml` screw table or a
+    /// `.urdf`.
+    pub name: Spanned<String>,
+    /// URDF base link.
+    #[serde(default)]
+    pub base: Option<String>,
+    /// URDF tip link.
+    #[serde(default)]
+    pub tip: Option<String>,
+    /// Joint inertias (one per joint, > 0).
+    pub inertia: Spanned<Vec<f64>>,
+    /// Velocity limit: one value or one per joint (default: the robot's).
+    #[serde(default)]
+    pub velocity_limit: Option<Spanned<Limit>>,
+    /// Torque limit: one value or one per joint (default: the robot's).
+    #[serde(default)]
+    pub torque_limit: Option<Spanned<Limit>>,
+}
+
+/// One limit for all joints, or one per joint.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum Limit {
+    /// The same for every joint.
+    All(f64),
+    /// Per joint.
+    Each(Vec<f64>),
+}
+
+/// Final time: free in `[min, max]`, minimized by default.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// Upper bound (s).
+    pub max: Spanned<f64>,
+    /// Lower bound (s). Default 0.
+    #[serde(default)]
+    pub min: Option<Spanned<f64>>,
+    /// Minimize the final time. Default true.
+    #[serde(default = "yes")]
+    pub minimize: bool,
+}
+
+/// Nodes: a count, or nodes per segment between waypoints (default 2).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodesSpec {
+    /// Nodes per segment between consecutive waypoints.
+    #[serde(default)]
+    pub per_segment: Option<Spanned<usize>>,
+    /// Total node count (waypoints then need explicit `node`s).
+    #[serde(default)]
+    pub count: Option<Spanned<usize>>,
+}
+
+/// A waypoint.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointSpec {
+    /// Unique name.
+    pub name: Spanned<String>,
+    /// End-effector position (m).
+    pub position: Spanned<[f64; 3]>,
+    /// Orientation `[w, x, y, z]` used by the IK guess, or `"free"`.
+    #[serde(default)]
+    pub orientation: Option<Spanned<OrientationValue>>,
+    /// Radius of the ball the end effector must pass through (m). Default 0.01.
+    #[serde(default)]
+    pub tolerance: Option<Spanned<f64>>,
+    /// Node index (default: position in the list × nodes per segment).
+    #[serde(default)]
+    pub node: Option<Spanned<usize>>,
+}
+
+/// A quaternion or `"free"`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum OrientationValue {
+    /// `[w, x, y, z]`.
+    Quaternion([f64; 4]),
+    /// `"free"`.
+    Word(String),
+}
+
+/// An orientation held (within a tolerance) from one waypoint to another, in continuous
+/// time and at every node of the range.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrientationSpec {
+    /// The orientation `[w, x, y, z]`.
+    pub quaternion_wxyz: Spanned<[f64; 4]>,
+    /// Largest rotation away from it (degrees, > 0).
+    pub tolerance_deg: Spanned<f64>,
+    /// First waypoint of the range.
+    pub from: Spanned<String>,
+    /// Last waypoint of the range.
+    pub to: Spanned<String>,
+}
+
+/// Collision: capsule links between keypoints, obstacles, pair options, and the clearance
+/// kept from every pair (the `armature-collision` scene format plus `margin`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionSpec {
+    /// Clearance kept (m). Default 0.002: the continuous-time integral lets a trajectory
+    /// dip a fraction of a millimetre below its bound between nodes.
+    #[serde(default = "default_margin")]
+    pub margin: f64,
+    /// Check non-adjacent link pairs. Default true.
+    #[serde(default = "yes")]
+    pub self_collision: bool,
+    /// Pairs to skip.
+    #[serde(default)]
+    pub allowed: Vec<(String, String)>,
+    /// Link pairs to add.
+    #[serde(default)]
+    pub extra: Vec<(String, String)>,
+    /// Capsule links.
+    #[serde(default)]
+    pub links: Vec<armature_collision::LinkSpec>,
+    /// Obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<armature_collision::ObstacleSpec>,
+}
+
+fn default_margin() -> f64 {
+    0.002
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// How the initial guess is made.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitSpec {
+    /// `"sequential"` (each node seeded from the previous: a continuous path; default) or
+    /// `"parallel"`.
+    #[serde(default = "sequential")]
+    pub ik: Spanned<String>,
+    /// IK random restarts per node. Default 8.
+    #[serde(default = "eight")]
+    pub restarts: usize,
+}
+
+impl Default for InitSpec {
+    fn default() -> Self {
+        InitSpec { ik: sequential(), restarts: 8 }
+    }
+}
+
+fn sequential() -> Spanned<String> {
+    Spanned::new(0..0, "sequential".into())
+}
+
+fn eight() -> usize {
+    8
+}
+
+/// Algorithm settings (a subset of `armature_scvx::PtrSettings`; the rest keep defaults).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SettingsSpec {
+    /// SCvx iteration cap.
+    #[serde(default)]
+    pub max_iterations: Option<usize>,
+    /// RK4 steps per segment.
+    #[serde(default)]
+    pub substeps: Option<usize>,
+    /// Dense propagation step (s).
+    #[serde(default)]
+    pub dense_dt: Option<Spanned<f64>>,
+    /// Convergence tolerance of the trust-region step.
+    #[serde(default)]
+    pub eps_tr: Option<f64>,
+    /// Convergence tolerance of the dynamics defects.
+    #[serde(default)]
+    pub eps_defect: Option<f64>,
+    /// Convergence tolerance of nodal constraint violations.
+    #[serde(default)]
+    pub eps_vb: Option<f64>,
+}
+
+/// An error located in a file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {message}")]
+pub struct LocatedError {
+    /// The file (as given).
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column (characters).
+    pub column: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+/// A source text and its name, to locate errors.
+#[derive(Debug, Clone, Copy)]
+pub struct Source<'a> {
+    /// The file name as the user gave it (or `<built-in name>`).
+    pub name: &'a str,
+    /// Its text.
+    pub text: &'a str,
+}
+
+impl Source<'_> {
+    /// An error at byte `offset`.
+    pub fn error_at(&self, offset: usize, message: impl Into<String>) -> LocatedError {
+        let (line, column) = line_col(self.text, offset);
+        LocatedError { file: self.name.to_string(), line, column, message: message.into() }
+    }
+
+    /// An error at a spanned value.
+    pub fn error<T>(&self, at: &Spanned<T>, message: impl Into<String>) -> LocatedError {
+        self.error_at(at.span().start, message)
+    }
+}
+
+/// Parses a task file.
+///
+/// # Errors
+/// TOML syntax, unknown keys and wrong types, as `file:line:col: reason`.
+pub fn parse(src: Source<'_>) -> Result<TaskFile, LocatedError> {
+    toml::from_str(src.text).map_err(|e| {
+        let at = e.span().map_or(0, |s| s.start);
+        src.error_at(at, e.message().trim_end().to_string())
+    })
+}
+
+/// Resolves a robot path relative to the task file's folder (built-in names pass through).
+pub fn resolve_robot(name: &str, task_path: Option<&Path>) -> String {
+    let p = Path::new(name);
+    let is_file = matches!(
+        p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+        Some("toml" | "urdf")
+    );
+    match (is_file, task_path.and_then(Path::parent)) {
+        (true, Some(dir)) if p.is_relative() => dir.join(p).to_string_lossy().into_owned(),
+        _ => name.to_string(),
+    }
+}

@@ -1,0 +1,214 @@
+//! End-to-end: `armature demo` / `armature solve` on the shipped task files write the result
+//! JSON (stable keys), CSV tables and plots; every class of bad input gives its located
+//! message, exit code 2 and no output file; a solve stopped by its iteration cap exits 3 and
+//! still writes its result.
+
+mod common;
+
+use common::{armature, temp_file};
+use serde_json::Value;
+
+const TASK: &str = include_str!("../../../examples/pick-and-place.toml");
+const COLLISION_TASK: &str = include_str!("../../../examples/pick-and-place-collision.toml");
+
+fn read_json(path: &std::path::Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn demo_writes_json_csv_and_plots_and_meets_the_task() {
+    let dir = temp_file("demo", "placeholder", "").parent().unwrap().to_path_buf();
+    let (json, csv, plots) = (dir.join("out/result.json"), dir.join("csv"), dir.join("plots"));
+    let (code, stdout, stderr) = armature(&[
+        "demo",
+        "-q",
+        "-o",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.is_empty() && stderr.is_empty(), "quiet: {stdout}{stderr}");
+    let r = read_json(&json);
+    for key in [
+        "status",
+        "final_time",
+        "iterations",
+        "nodes",
+        "trajectory",
+        "history",
+        "timings",
+        "violations",
+    ] {
+        assert!(r.get(key).is_some(), "{key}");
+    }
+    assert_eq!(r["status"], "converged");
+    let tf = r["final_time"].as_f64().unwrap();
+    assert!(tf > 0.5 && tf <= 4.0, "{tf}");
+    let nodes = &r["nodes"];
+    for key in ["time", "angle", "velocity", "torque", "ee_position"] {
+        assert_eq!(nodes[key].as_array().unwrap().len(), 11, "{key}");
+    }
+    // Waypoints within 1 cm at their nodes; the dense trajectory above the table and within
+    // the velocity limit.
+    let wps = [
+        [0.69, 0.0, 0.34],
+        [0.35, -0.25, 0.2],
+        [0.35, -0.25, 0.05],
+        [0.35, -0.25, 0.2],
+        [0.35, 0.25, 0.2],
+        [0.35, 0.25, 0.05],
+    ];
+    for (w, p) in wps.iter().enumerate() {
+        let e: Vec<f64> = serde_json::from_value(nodes["ee_position"][2 * w].clone()).unwrap();
+        let d = (0..3).map(|i| (e[i] - p[i]).powi(2)).sum::<f64>().sqrt();
+        assert!(d <= 0.01 + 1e-6, "waypoint {w}: {d}");
+    }
+    let dense = &r["trajectory"];
+    for row in dense["ee_position"].as_array().unwrap() {
+        assert!(row[2].as_f64().unwrap() >= -1e-4);
+    }
+    for row in dense["velocity"].as_array().unwrap() {
+        assert!(row.as_array().unwrap().iter().all(|v| v.as_f64().unwrap().abs() <= 3.0 + 1e-4));
+    }
+    // CSV: a header naming the columns and one row per sample.
+    let table = std::fs::read_to_string(csv.join("trajectory.csv")).unwrap();
+    let header = table.lines().next().unwrap();
+    assert!(
+        header.starts_with("time,")
+            && header.contains("angle[6]")
+            && header.contains("ee_position[2]")
+    );
+    assert_eq!(table.lines().count(), 1 + dense["time"].as_array().unwrap().len());
+    let nodes_csv = std::fs::read_to_string(csv.join("nodes.csv")).unwrap();
+    assert_eq!(nodes_csv.lines().count(), 12);
+    // Plots: SVG text and PNG images, nothing left over.
+    for name in ["joints", "convergence", "path", "arm"] {
+        let svg = std::fs::read_to_string(plots.join(format!("{name}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.len() > 5000, "{name}.svg");
+        let png = std::fs::read(plots.join(format!("{name}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}.png");
+    }
+    assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 8, "no temporary files remain");
+}
+
+#[test]
+fn collision_example_converges_and_keeps_clear_of_the_ball() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/pick-and-place-collision.toml");
+    let out = temp_file("collision", "placeholder", "").with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let r = read_json(&out);
+    assert_eq!(r["status"], "converged");
+    // Clearance on the dense trajectory, from the joint angles, with the collision crate.
+    let arm = armature_kinematics::robots::arm7();
+    let model = armature_collision::CollisionModel::seed_arm7(&arm).unwrap();
+    let mut ws = model.workspace(&arm);
+    let mut closest = f64::INFINITY;
+    for row in r["trajectory"]["angle"].as_array().unwrap() {
+        let q: Vec<f64> = serde_json::from_value(row.clone()).unwrap();
+        for p in model.evaluate(&arm, &q, &mut ws, false).unwrap() {
+            closest = closest.min(p.distance);
+        }
+    }
+    assert!(closest > 0.0, "penetration {closest}");
+    // The same task without the obstacle goes through the ball: the variant is not vacuous.
+    assert!(COLLISION_TASK.contains("[collision]") && !TASK.contains("[collision]"));
+}
+
+/// Replaces `from` by `to` in the seed task, writes it, solves it with `-o`, and checks the
+/// exit code, that the message is `file:line:col: …reason…` at the first changed line, and
+/// that no result file appears.
+fn bad(tag: &str, from: &str, to: &str, reason: &str) {
+    assert!(TASK.contains(from), "{tag}: the seed task has no '{from}'");
+    let text = TASK.replacen(from, to, 1);
+    let path = temp_file(tag, "task.toml", &text);
+    let out = path.with_file_name("result.json");
+    let (code, stdout, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{tag}: {stderr}");
+    assert!(stdout.is_empty(), "{tag}");
+    assert!(stderr.contains(reason), "{tag}: {stderr}");
+    let first_diff = text.bytes().zip(TASK.bytes()).position(|(a, b)| a != b).unwrap();
+    let first_line_of_change = text[..first_diff].matches('\n').count() + 1;
+    let located = format!("{}:{first_line_of_change}:", path.display());
+    assert!(stderr.contains(&located), "{tag}: expected {located} in {stderr}");
+    assert!(!out.exists(), "{tag}: a result file was written");
+}
+
+#[test]
+fn every_bad_input_class_is_located_and_writes_nothing() {
+    bad("unknown-key", "inertia = ", "colour = 1\ninertia = ", "unknown field `colour`");
+    bad("wrong-type", "max = 4.0", "max = \"four\"", "invalid type");
+    bad("negative-time", "max = 4.0", "max = -4.0", "must be a positive number");
+    bad("nan", "position = [0.35, -0.25, 0.2]", "position = [nan, -0.25, 0.2]", "must be finite");
+    bad(
+        "tolerance",
+        "position = [0.35, -0.25, 0.05]",
+        "position = [0.35, -0.25, 0.05]\ntolerance = 0.0",
+        "must be > 0",
+    );
+    bad("node", "name = \"grasp\"", "name = \"grasp\"\nnode = 40", "beyond the last node");
+    bad(
+        "orientation-range",
+        "from = \"pre_place\"",
+        "from = \"nowhere\"",
+        "no waypoint is named 'nowhere'",
+    );
+    bad(
+        "inertia-count",
+        "inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]",
+        "inertia = [0.08, 0.06]",
+        "2 inertias for 7 joints",
+    );
+    bad("robot", "name = \"arm7\"", "name = \"arm9\"", "arm9");
+    bad(
+        "quaternion",
+        "orientation = [1.0, 0.0, 0.0, 0.0]",
+        "orientation = [2.0, 0.0, 0.0, 0.0]",
+        "quaternion",
+    );
+    bad(
+        "collision-link",
+        "table_height = 0.0   # m; the end effector stays above it",
+        "table_height = 0.0   # m; the end effector stays above it\n[collision]\nlinks = [{ start = \"base\", end = \"elbw\", radius = 0.05 }]",
+        "elbw",
+    );
+    bad(
+        "collision-radius",
+        "table_height = 0.0   # m; the end effector stays above it",
+        "table_height = 0.0   # m; the end effector stays above it\n[collision]\nlinks = [{ start = \"base\", end = \"elbow\", radius = -0.05 }]",
+        "radius",
+    );
+}
+
+#[test]
+fn a_solve_stopped_by_its_cap_exits_3_and_writes_its_result() {
+    let text = format!("{TASK}\n[settings]\nmax_iterations = 2\n");
+    let path = temp_file("capped", "task.toml", &text);
+    let out = path.with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 3, "{stderr}");
+    assert!(stderr.contains("max_iterations") && stderr.contains("largest violation"), "{stderr}");
+    let r = read_json(&out);
+    assert_eq!(r["status"], "max_iterations");
+    assert_eq!(r["iterations"], 2);
+    assert!(r["max_violation"]["constraint"].is_string());
+}
+
+#[test]
+fn demo_prints_its_task_which_is_the_shipped_file() {
+    for (example, text) in [("pick-and-place", TASK), ("pick-and-place-collision", COLLISION_TASK)]
+    {
+        let (code, stdout, _) = armature(&["demo", example, "--print-task"]);
+        assert_eq!(code, 0);
+        assert_eq!(stdout, text);
+    }
+    let (code, _, stderr) = armature(&["demo", "no-such-example"]);
+    assert_eq!(code, 2, "{stderr}");
+}
