@@ -8,6 +8,7 @@ pub mod exit;
 pub mod output;
 pub mod pipeline;
 pub mod plot;
+pub mod streaming;
 pub mod task;
 
 /// Command-line arguments of the `armature` binary.
@@ -32,6 +33,8 @@ pub enum Command {
     Solve(commands::solve::SolveArgs),
     /// Solve a built-in example (the seed pick-and-place, with or without collision).
     Demo(commands::demo::DemoArgs),
+    /// Print the trajectories and progress a `--stream RUN` solve publishes.
+    Listen(commands::listen::ListenArgs),
 }
 
 /// An error a command reports to the user (printed as `error: …`), with its exit code.
@@ -60,6 +63,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
         Command::Collide(args) => commands::collide::run(&args, out),
         Command::Solve(args) => commands::solve::run(&args, out),
         Command::Demo(args) => commands::demo::run(&args, out),
+        Command::Listen(args) => commands::listen::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

@@ -13,7 +13,7 @@ pub use discretization::{
 };
 pub use problem::{
     Ball, Boundary, CompiledProblem, Control, CtcsOptions, Problem, ProblemConstraint,
-    ProblemError, Solution, SolutionTimings, State, Time,
+    ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
 };
 pub use ptr::{
     Iteration, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,

@@ -352,11 +352,21 @@ pub struct CompiledProblem {
     /// `(internal state name, what its integral carries)` per CTCS group.
     ctcs_names: Vec<(String, String)>,
     settings: PtrSettings,
+    layout: SolutionLayout,
+    guess: Guess,
+}
+
+/// How flat state, control and output vectors map to names; evaluates the algebraic outputs.
+/// Cloned from [`CompiledProblem::layout`], it names trajectories independently of the
+/// solver (e.g. in an observer while the solve runs).
+#[derive(Debug, Clone)]
+pub struct SolutionLayout {
     states: Vec<Block>,
     controls: Vec<Block>,
     outputs: Vec<Block>,
     output_fn: Option<Function>,
-    guess: Guess,
+    n: usize,
+    m: usize,
 }
 
 /// A solve's result by name, with stable top-level keys (scripts depend on them).
@@ -638,10 +648,16 @@ impl Problem {
             .collect();
         Ok(CompiledProblem {
             ctcs_names,
-            states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),
-            controls: blocks(self.controls.iter().map(|c| (c.name.clone(), c.size())).collect()),
-            outputs,
-            output_fn,
+            layout: SolutionLayout {
+                states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),
+                controls: blocks(
+                    self.controls.iter().map(|c| (c.name.clone(), c.size())).collect(),
+                ),
+                outputs,
+                output_fn,
+                n,
+                m: self.controls.iter().map(Control::size).sum(),
+            },
             ptr: Ptr::new(ocp, settings.clone()),
             settings,
             guess,
@@ -850,6 +866,11 @@ impl Problem {
 }
 
 impl CompiledProblem {
+    /// How trajectories map to names (clone it to name iterates while solving).
+    pub fn layout(&self) -> &SolutionLayout {
+        &self.layout
+    }
+
     /// The underlying solver (its [`Ocp`], step API and parameters).
     pub fn ptr(&mut self) -> &mut Ptr {
         &mut self.ptr
@@ -868,13 +889,14 @@ impl CompiledProblem {
     pub fn set_guess(&mut self, name: &str, values: &[f64]) -> Result<(), ProblemError> {
         let nn = self.ptr.ocp().nodes;
         let (n, m) = (self.ptr.ocp().dynamics.n_x(), self.ptr.ocp().dynamics.n_u());
-        let (block, target, width) = if let Some(b) = self.states.iter().find(|b| b.name == name) {
-            (b, &mut self.guess.0, n)
-        } else if let Some(b) = self.controls.iter().find(|b| b.name == name) {
-            (b, &mut self.guess.1, m)
-        } else {
-            return Err(bad(format!("guess \"{name}\""), "no state or control has this name"));
-        };
+        let (block, target, width) =
+            if let Some(b) = self.layout.states.iter().find(|b| b.name == name) {
+                (b, &mut self.guess.0, n)
+            } else if let Some(b) = self.layout.controls.iter().find(|b| b.name == name) {
+                (b, &mut self.guess.1, m)
+            } else {
+                return Err(bad(format!("guess \"{name}\""), "no state or control has this name"));
+            };
         if values.len() != nn * block.size {
             return Err(bad(
                 format!("guess \"{name}\""),
@@ -914,7 +936,7 @@ impl CompiledProblem {
             Err(PtrError::UnknownParameter(_)) => 0,
             Err(e) => return Err(e.into()),
         };
-        if let Some(f) = self.output_fn.as_mut()
+        if let Some(f) = self.layout.output_fn.as_mut()
             && f.parameter_names().any(|p| p == name)
         {
             f.set_parameter(name, value).map_err(sym(format!("parameter \"{name}\"")))?;
@@ -977,7 +999,7 @@ impl CompiledProblem {
     fn solution(&mut self, r: &PtrResult, solve_ms: f64) -> Result<Solution, ProblemError> {
         let t0 = Instant::now();
         let ocp = self.ptr.ocp();
-        let (n, m, nn) = (ocp.dynamics.n_x(), ocp.dynamics.n_u(), ocp.nodes);
+        let (n, nn) = (ocp.dynamics.n_x(), ocp.nodes);
         let dtau = 1.0 / (nn - 1) as f64;
         let mut node_times = vec![0.0; nn];
         for k in 1..nn {
@@ -987,7 +1009,7 @@ impl CompiledProblem {
             .dynamics
             .propagate_dense(&r.x[..n], &r.u, &r.s, self.settings.dense_dt)
             .map_err(PtrError::from)?;
-        let nodes = self.tables(&node_times, &r.x, &r.u, n, m)?;
+        let nodes = self.layout.tables(&node_times, &r.x, &r.u)?;
         // Violations of the CTCS integrals named by what they carry.
         let rename = |v: &Violation| {
             let mut v = v.clone();
@@ -998,7 +1020,7 @@ impl CompiledProblem {
             }
             v
         };
-        let trajectory = self.tables(&dense.time, &dense.x, &dense.u, n, m)?;
+        let trajectory = self.layout.tables(&dense.time, &dense.x, &dense.u)?;
         Ok(Solution {
             status: r.status.as_str().to_string(),
             final_time: r.final_time,
@@ -1016,16 +1038,34 @@ impl CompiledProblem {
             max_violation: r.max_violation.as_ref().map(rename),
         })
     }
+}
 
-    /// Name → rows for samples `(times, x rows of n, u rows of m)`.
-    fn tables(
+impl SolutionLayout {
+    /// Name → rows for the samples `times` with states `x` (rows of n, the CTCS integrals
+    /// included) and controls `u` (rows of m): `time`, every state and control, every output.
+    ///
+    /// # Errors
+    /// Buffers that do not match the layout; an output evaluation failure.
+    pub fn tables(
         &self,
         times: &[f64],
         x: &[f64],
         u: &[f64],
-        n: usize,
-        m: usize,
     ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        let (n, m) = (self.n, self.m);
+        if x.len() != times.len() * n || u.len() != times.len() * m {
+            return Err(bad(
+                "trajectory",
+                format!(
+                    "{} samples need {} state and {} control values, got {} and {}",
+                    times.len(),
+                    times.len() * n,
+                    times.len() * m,
+                    x.len(),
+                    u.len()
+                ),
+            ));
+        }
         let mut t = BTreeMap::new();
         t.insert("time".to_string(), times.iter().map(|&v| vec![v]).collect());
         let rows = |data: &[f64], width: usize, b: &Block| -> Vec<Vec<f64>> {
@@ -1056,6 +1096,22 @@ impl CompiledProblem {
             }
         }
         Ok(t)
+    }
+
+    /// Named tables of a nodal trajectory (e.g. the current iterate in an observer).
+    ///
+    /// # Errors
+    /// As [`tables`](Self::tables).
+    pub fn nodal_tables(
+        &self,
+        t: &Trajectory<'_>,
+    ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        let dtau = 1.0 / (t.nodes.max(2) - 1) as f64;
+        let mut times = vec![0.0; t.nodes];
+        for k in 1..t.nodes {
+            times[k] = times[k - 1] + t.s[k - 1] * dtau;
+        }
+        self.tables(&times, t.x, t.u)
     }
 }
 

@@ -4,5 +4,6 @@ pub mod collide;
 pub mod demo;
 pub mod fk;
 pub mod ik;
+pub mod listen;
 pub mod robot;
 pub mod solve;

@@ -3,10 +3,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use armature_bridge::{BridgeError, Status};
 use armature_scvx::IterationTable;
 use clap::Args;
 
 use crate::pipeline::plan;
+use crate::streaming::Streamer;
 use crate::task::{Source, parse};
 use crate::{CliError, exit, output};
 
@@ -25,6 +27,13 @@ pub struct OutputArgs {
     /// Print nothing but errors (no iteration table, no summary).
     #[arg(short, long)]
     pub quiet: bool,
+    /// Publish every SCvx iterate (nodes and progress) and the final dense trajectory over
+    /// iceoryx2 as run RUN (services `armature/RUN/trajectory` and `armature/RUN/progress`).
+    #[arg(long, value_name = "RUN")]
+    pub stream: Option<String>,
+    /// With --stream: keep serving the final trajectory to late subscribers this many seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, requires = "stream")]
+    pub linger: f64,
 }
 
 /// Arguments of `armature solve`.
@@ -92,17 +101,67 @@ pub fn run_task(
         d.nonzeros,
         t0.elapsed().as_secs_f64() * 1e3
     ));
+    let mut streamer = match &o.stream {
+        Some(run) => {
+            if !(o.linger.is_finite() && o.linger >= 0.0) {
+                return Err(CliError::bad_input(format!(
+                    "--linger {}: give seconds ≥ 0",
+                    o.linger
+                )));
+            }
+            let names: Vec<String> = plan.chain.keypoint_names().map(str::to_string).collect();
+            let s = Streamer::new(run, &names)
+                .map_err(|e| CliError::bad_input(format!("--stream: {e}")))?;
+            say(&format!("streaming on armature/{run}/trajectory and armature/{run}/progress"));
+            Some(s)
+        }
+        None => None,
+    };
     if !o.quiet {
         let _ = IterationTable::header(&mut std::io::stderr());
     }
     let quiet = o.quiet;
+    let layout = compiled.layout().clone();
+    let mut stream_error = None;
     let solution = compiled
-        .solve_with(|it, _| {
+        .solve_with(|it, traj| {
             if !quiet {
                 let _ = IterationTable::row(&mut std::io::stderr(), it);
             }
+            if let (Some(s), None) = (streamer.as_mut(), &stream_error) {
+                let status = it.status.map_or(Status::Running, |st| {
+                    Status::from_word(st.as_str()).unwrap_or(Status::Running)
+                });
+                let sent = s.progress(it).and_then(|_| {
+                    let tables = layout
+                        .nodal_tables(traj)
+                        .map_err(|e| BridgeError::BadData(e.to_string()))?;
+                    s.publish(&tables, it.iteration as u64, status, traj.final_time, false)
+                });
+                if let Err(e) = sent {
+                    stream_error = Some(e);
+                }
+            }
         })
         .map_err(CliError::bad_input)?;
+    if let Some(s) = streamer.as_mut() {
+        let status = Status::from_word(&solution.status).unwrap_or(Status::NumericalFailure);
+        let sent = match stream_error.take() {
+            Some(e) => Err(e),
+            None => s
+                .publish(
+                    &solution.trajectory,
+                    solution.iterations as u64,
+                    status,
+                    solution.final_time,
+                    true,
+                )
+                .map(|_| ()),
+        };
+        if let Err(e) = sent {
+            return Err(CliError { message: format!("--stream: {e}"), code: exit::IO });
+        }
+    }
     say(&format!(
         "{}: final time {:.4} s after {} iterations; solve {:.1} ms (discretization {:.1}, subproblems {:.1}), dense propagation {:.1} ms ({} samples); total {:.1} ms",
         solution.status,
@@ -125,6 +184,14 @@ pub fn run_task(
     }
     for p in &written {
         say(&format!("wrote {}", p.display()));
+    }
+    // Last: serve late subscribers (the summary and the files are already out).
+    if let Some(s) = &streamer
+        && o.linger > 0.0
+    {
+        say(&format!("serving the final trajectory for {} s", o.linger));
+        s.linger(o.linger)
+            .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
     }
     if solution.converged() {
         Ok(())

@@ -1,0 +1,111 @@
+//! Publishing a solve over iceoryx2 (`--stream RUN`): every SCvx iterate's nodes and
+//! progress, then the final dense trajectory.
+
+use std::collections::BTreeMap;
+
+use armature_bridge::{
+    BridgeError, BridgeSettings, Progress, Status, TrajectoryMeta, TrajectoryPublisher,
+};
+use armature_scvx::Iteration;
+
+/// A publisher plus the names of the table columns that make each block.
+#[derive(Debug)]
+pub struct Streamer {
+    publisher: TrajectoryPublisher,
+    /// Table names of the frames block, in keypoint order (`T_<keypoint>`).
+    frames: Vec<String>,
+}
+
+type Tables = BTreeMap<String, Vec<Vec<f64>>>;
+
+impl Streamer {
+    /// A streamer for run `run`; `keypoints` are the chain's keypoint names.
+    ///
+    /// # Errors
+    /// The bridge's (a bad run name, iceoryx2 failures).
+    pub fn new(run: &str, keypoints: &[String]) -> Result<Self, BridgeError> {
+        Ok(Streamer {
+            publisher: TrajectoryPublisher::new(run, &BridgeSettings::default())?,
+            frames: keypoints.iter().map(|k| format!("T_{k}")).collect(),
+        })
+    }
+
+    /// Publishes named tables (`time`, `angle`, `velocity`, `torque`, `ee_position`,
+    /// `T_<keypoint>`) as one trajectory message, written in place.
+    ///
+    /// # Errors
+    /// The bridge's (e.g. a trajectory beyond the configured size).
+    pub fn publish(
+        &mut self,
+        t: &Tables,
+        iteration: u64,
+        status: Status,
+        final_time: f64,
+        dense: bool,
+    ) -> Result<u64, BridgeError> {
+        let empty: Vec<Vec<f64>> = Vec::new();
+        let get = |name: &str| t.get(name).unwrap_or(&empty);
+        // Columns of each block as (table, index within its rows).
+        let mut cols: Vec<(&Vec<Vec<f64>>, usize)> = Vec::new();
+        let mut widths = [0u32; 6];
+        for (b, names) in [
+            vec!["time".to_string()],
+            vec!["angle".into()],
+            vec!["velocity".into()],
+            vec!["torque".into()],
+            vec!["ee_position".into()],
+            self.frames.clone(),
+        ]
+        .iter()
+        .enumerate()
+        {
+            for name in names {
+                let table = get(name);
+                let w = table.first().map_or(0, Vec::len);
+                cols.extend((0..w).map(|i| (table, i)));
+                widths[b] += w as u32;
+            }
+        }
+        let rows = get("time").len();
+        let meta = TrajectoryMeta { iteration, status, final_time, dense, widths };
+        self.publisher.publish_with(&meta, rows, |r, c| cols[c].0[r][cols[c].1])
+    }
+
+    /// Publishes one iteration's progress.
+    ///
+    /// # Errors
+    /// The bridge's.
+    pub fn progress(&mut self, it: &Iteration) -> Result<u64, BridgeError> {
+        let status = it
+            .status
+            .map_or(Status::Running, |s| Status::from_word(s.as_str()).unwrap_or(Status::Running));
+        self.publisher.publish_progress(Progress {
+            status: status.code(),
+            iteration: it.iteration as u64,
+            accepted: u32::from(it.accepted),
+            subproblem_iterations: it.subproblem_iterations,
+            cost: it.cost,
+            j_tr: it.j_tr,
+            j_vc: it.j_vc,
+            j_vb: it.j_vb,
+            max_defect: it.max_defect,
+            max_violation: it.max_violation,
+            final_time: it.final_time,
+            lam_tr: it.lam_tr,
+            discretization_ms: it.discretization_ms,
+            subproblem_ms: it.subproblem_ms,
+            ..Progress::default()
+        })
+    }
+
+    /// Serves the latest trajectory to late subscribers for `seconds`.
+    ///
+    /// # Errors
+    /// The bridge's.
+    pub fn linger(&self, seconds: f64) -> Result<(), BridgeError> {
+        if seconds > 0.0 {
+            self.publisher.serve(std::time::Duration::from_secs_f64(seconds))?;
+        }
+        Ok(())
+    }
+}

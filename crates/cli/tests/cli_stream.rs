@@ -1,0 +1,119 @@
+//! Two processes: `armature demo --stream RUN` publishes, `armature listen RUN` receives.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+
+use common::{armature, temp_file};
+use serde_json::Value;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_armature"))
+}
+
+/// Waits until the child's stderr says `what`; returns the rest of its stderr lines.
+fn wait_for(
+    child: &mut std::process::Child,
+    what: &str,
+) -> std::io::Lines<BufReader<std::process::ChildStderr>> {
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    for line in lines.by_ref() {
+        if line.unwrap().contains(what) {
+            return lines;
+        }
+    }
+    panic!("the process ended without saying '{what}'");
+}
+
+#[test]
+fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
+    let run = format!("cli-json-{}", std::process::id());
+    let mut listener = bin()
+        .args(["listen", &run, "--json", "--timeout", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let _rest = wait_for(&mut listener, "listening on");
+    let result = temp_file("stream", "placeholder", "").with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["demo", "-q", "--stream", &run, "-o", result.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let out = listener.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let lines: Vec<Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    let iterations = r["iterations"].as_u64().unwrap() as usize;
+    // Nodal trajectories of the iterations in order, then the dense one. (A listener that
+    // falls more than its buffer behind loses the oldest — the publisher never blocks — so
+    // under load some intermediate iterates may be missing; the order and the final
+    // trajectory are guaranteed.)
+    assert!(lines.len() >= 2, "{} lines", lines.len());
+    let seqs: Vec<u64> = lines.iter().map(|l| l["sequence"].as_u64().unwrap()).collect();
+    assert!(seqs.windows(2).all(|w| w[0] < w[1]), "{seqs:?}");
+    for l in &lines[..lines.len() - 1] {
+        assert_eq!(l["dense"], false);
+        assert_eq!(l["sequence"], l["iteration"], "one message per iteration");
+    }
+    assert_eq!(lines.last().unwrap()["sequence"], iterations as u64 + 1);
+    assert_eq!(lines.last().unwrap()["dense"], true);
+    let last = lines.last().unwrap();
+    assert_eq!(last["status"], "converged");
+    assert_eq!(last["final_time"], r["final_time"]);
+    let columns: Vec<&str> =
+        last["columns"].as_array().unwrap().iter().map(|c| c.as_str().unwrap()).collect();
+    assert_eq!(columns[0], "time");
+    let angle0 = columns.iter().position(|c| *c == "angle[0]").unwrap();
+    let ee0 = columns.iter().position(|c| *c == "ee_position[0]").unwrap();
+    let rows = last["rows"].as_array().unwrap();
+    let dense = &r["trajectory"];
+    assert_eq!(rows.len(), dense["time"].as_array().unwrap().len());
+    for (k, row) in rows.iter().enumerate() {
+        assert_eq!(row[0], dense["time"][k][0]);
+        for j in 0..7 {
+            assert_eq!(row[angle0 + j], dense["angle"][k][j], "row {k} joint {j}");
+        }
+        for i in 0..3 {
+            assert_eq!(row[ee0 + i], dense["ee_position"][k][i]);
+        }
+    }
+}
+
+#[test]
+fn a_late_listener_gets_the_final_trajectory_while_the_publisher_lingers() {
+    let run = format!("cli-late-{}", std::process::id());
+    let mut publisher = bin()
+        .args(["demo", "--stream", &run, "--linger", "60"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The summary line comes after the solve; the dense trajectory follows it at once.
+    let rest = wait_for(&mut publisher, "converged: final time");
+    std::thread::spawn(move || for _ in rest {});
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let (code, stdout, stderr) = armature(&["listen", &run, "--once", "--timeout", "30"]);
+    let _ = publisher.kill();
+    let _ = publisher.wait();
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("converged: dense"), "{stdout}");
+}
+
+#[test]
+fn listen_gives_up_after_its_timeout_and_names_are_checked() {
+    let (code, _, stderr) =
+        armature(&["listen", &format!("nobody-{}", std::process::id()), "--timeout", "0.5"]);
+    assert_eq!(code, 3, "{stderr}");
+    assert!(stderr.contains("no message"), "{stderr}");
+    let (code, _, stderr) = armature(&["listen", "a/b", "--timeout", "1"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("run name"), "{stderr}");
+    let (code, _, stderr) = armature(&["demo", "-q", "--stream", "has space"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("run name"), "{stderr}");
+}
