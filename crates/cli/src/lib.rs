@@ -33,6 +33,8 @@ pub enum Command {
     Solve(commands::solve::SolveArgs),
     /// Solve a built-in example (the seed pick-and-place, with or without collision).
     Demo(commands::demo::DemoArgs),
+    /// What a task compiles to, without solving: constraints, sparsity, subproblem sizes.
+    Inspect(commands::inspect::InspectArgs),
     /// Print the trajectories and progress a `--stream RUN` solve publishes.
     Listen(commands::listen::ListenArgs),
 }
@@ -64,6 +66,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
         Command::Solve(args) => commands::solve::run(&args, out),
         Command::Demo(args) => commands::demo::run(&args, out),
         Command::Listen(args) => commands::listen::run(&args, out),
+        Command::Inspect(args) => commands::inspect::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

@@ -212,3 +212,31 @@ fn demo_prints_its_task_which_is_the_shipped_file() {
     let (code, _, stderr) = armature(&["demo", "no-such-example"]);
     assert_eq!(code, 2, "{stderr}");
 }
+
+#[test]
+fn inspect_shows_constraints_sparsity_and_sizes_without_solving() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/pick-and-place-collision.toml");
+    let (code, stdout, stderr) = armature(&["inspect", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    for needle in [
+        "robot arm7: 7 joints",
+        "waypoint grasp        node   4",
+        "_ctcs_4  continuous-time clearance",
+        "clearance wrist-ee|ball at the nodes",
+        "‖g‖ ≤ 0.001745 (second-order cone), nodes [2, 3, 4, 5, 6]",
+        "dynamics Jacobian ∂f/∂[x, u]: 19×26",
+        "subproblem: ",
+    ] {
+        assert!(stdout.contains(needle), "missing '{needle}' in\n{stdout}");
+    }
+    // The Jacobian picture: one row of `.`/`*` per state.
+    let picture =
+        stdout.lines().skip_while(|l| !l.starts_with("dynamics Jacobian")).skip(1).take(19);
+    assert!(picture.clone().all(|l| l.len() == 26 && l.chars().all(|c| c == '.' || c == '*')));
+    assert!(!stdout.contains("iter acc"), "inspect does not solve");
+    let bad = temp_file("inspect-bad", "task.toml", "[robot]\nname = 3\n");
+    let (code, _, stderr) = armature(&["inspect", bad.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("task.toml:2:8"), "{stderr}");
+}

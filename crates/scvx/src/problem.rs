@@ -866,6 +866,11 @@ impl Problem {
 }
 
 impl CompiledProblem {
+    /// The continuous-time (CTCS) integrals: `(internal state name, what it carries)`.
+    pub fn ctcs_groups(&self) -> &[(String, String)] {
+        &self.ctcs_names
+    }
+
     /// How trajectories map to names (clone it to name iterates while solving).
     pub fn layout(&self) -> &SolutionLayout {
         &self.layout

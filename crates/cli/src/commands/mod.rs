@@ -4,6 +4,7 @@ pub mod collide;
 pub mod demo;
 pub mod fk;
 pub mod ik;
+pub mod inspect;
 pub mod listen;
 pub mod robot;
 pub mod solve;

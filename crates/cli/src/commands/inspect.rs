@@ -1,0 +1,124 @@
+//! `armature inspect`: what a task compiles to, without solving.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use armature_scvx::NodalKind;
+use clap::Args;
+
+use crate::pipeline::plan;
+use crate::task::{Source, parse};
+use crate::{CliError, exit};
+
+/// Arguments of `armature inspect`.
+#[derive(Debug, Clone, Args)]
+pub struct InspectArgs {
+    /// The task file (TOML).
+    pub file: PathBuf,
+}
+
+/// Runs `armature inspect`: the robot, nodes and waypoints, the states and controls with
+/// their bounds, every constraint with its kind and nodes, the Jacobian sparsity of the
+/// dynamics and of the discretized matrices, and the subproblem's dimensions.
+///
+/// # Errors
+/// Bad input (as `armature solve`), output failures.
+pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> {
+    let text = std::fs::read_to_string(&args.file)
+        .map_err(|e| CliError::bad_input(format!("{}: {e}", args.file.display())))?;
+    let name = args.file.display().to_string();
+    let src = Source { name: &name, text: &text };
+    let task = parse(src).map_err(CliError::bad_input)?;
+    let plan = plan(&task, src, Some(&args.file)).map_err(CliError::bad_input)?;
+    let mut compiled = plan.compile().map_err(CliError::bad_input)?;
+    let mut s = String::new();
+    let chain = &plan.chain;
+    let _ = writeln!(
+        s,
+        "robot {}: {} joints, keypoints {}",
+        chain.name(),
+        chain.dof(),
+        chain.keypoint_names().collect::<Vec<_>>().join(", ")
+    );
+    let _ = writeln!(s, "nodes: {} ({} segments)", plan.nodes, plan.nodes - 1);
+    for w in &plan.waypoints {
+        let _ = writeln!(
+            s,
+            "  waypoint {:<12} node {:>3}  position {:?} ± {} m",
+            w.name, w.node, w.position, w.tolerance
+        );
+    }
+    let ik_ok = plan.ik.nodes.iter().filter(|r| r.converged).count();
+    let _ = writeln!(
+        s,
+        "initial guess: IK {ik_ok}/{} nodes converged, spline duration {:.4} s",
+        plan.nodes,
+        plan.dilation_guess[..plan.nodes - 1].iter().sum::<f64>() / (plan.nodes - 1) as f64
+    );
+    let ocp = compiled.ptr().ocp().clone();
+    let d = &ocp.dynamics;
+    let _ = writeln!(s, "\nstates ({}):", d.n_x());
+    for i in 0..d.n_x() {
+        let fixed = |v: Option<f64>| v.map_or("free".to_string(), |v| format!("{v:.4}"));
+        let _ = writeln!(
+            s,
+            "  {:<14} [{:>9.4}, {:>9.4}]  initial {:<8} final {}",
+            d.state_name(i).unwrap_or("?"),
+            ocp.x_min[i],
+            ocp.x_max[i],
+            fixed(ocp.x_initial[i]),
+            fixed(ocp.x_final[i])
+        );
+    }
+    let _ = writeln!(s, "controls ({}): bounds {:?} … {:?}", d.n_u(), ocp.u_min, ocp.u_max);
+    let _ = writeln!(
+        s,
+        "time: dilation per segment in [{}, {}], final time in [{}, {}], time weight {}",
+        ocp.s_min, ocp.s_max, ocp.final_time.0, ocp.final_time.1, ocp.time_weight
+    );
+    let _ = writeln!(s, "\ncontinuous-time constraints (CTCS integrals, nodal increments ≤ ε):");
+    for (internal, what) in compiled.ctcs_groups() {
+        let _ = writeln!(s, "  {:<8} {what}", internal.trim_start_matches("dynamics of "));
+    }
+    let _ = writeln!(s, "nodal constraints:");
+    for c in &ocp.nodal {
+        let kind = match c.kind {
+            NodalKind::Inequality => {
+                format!("g ≤ 0 ({} entries, linearized)", c.function.n_outputs())
+            }
+            NodalKind::Ball { radius } => format!("‖g‖ ≤ {radius:.6} (second-order cone)"),
+        };
+        let _ = writeln!(s, "  {:<48} {kind}, nodes {:?}", c.name, c.nodes);
+    }
+    let jac = d.function().jacobian_pattern();
+    let _ = writeln!(
+        s,
+        "\ndynamics Jacobian ∂f/∂[x, u]: {}×{}, {} nonzeros",
+        jac.nrows(),
+        jac.ncols(),
+        jac.nnz()
+    );
+    let _ = write!(s, "{jac}");
+    let tp = d.transition_pattern();
+    let _ = writeln!(
+        s,
+        "discretized [A | B | s] per segment: {}×{}, {} structural nonzeros (of {})",
+        tp.nrows(),
+        tp.ncols(),
+        tp.nnz(),
+        tp.nrows() * tp.ncols()
+    );
+    let _ = write!(s, "{tp}");
+    let dims = compiled.ptr().dimensions();
+    let _ = writeln!(
+        s,
+        "\nsubproblem: {} variables; {} equality, {} inequality rows; {} second-order cones ({} rows); {} nonzeros in A",
+        dims.variables,
+        dims.equality_rows,
+        dims.inequality_rows,
+        dims.second_order_cones,
+        dims.cone_rows,
+        dims.nonzeros
+    );
+    out.write_all(s.as_bytes()).map_err(|e| CliError { message: e.to_string(), code: exit::IO })
+}
