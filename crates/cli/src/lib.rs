@@ -8,6 +8,7 @@ pub mod exit;
 pub mod output;
 pub mod pipeline;
 pub mod plot;
+pub mod problem_file;
 pub mod streaming;
 pub mod task;
 
@@ -35,6 +36,8 @@ pub enum Command {
     Demo(commands::demo::DemoArgs),
     /// What a task compiles to, without solving: constraints, sparsity, subproblem sizes.
     Inspect(commands::inspect::InspectArgs),
+    /// JSON Schema of the task or problem file format.
+    Schema(commands::schema::SchemaArgs),
     /// Print the trajectories and progress a `--stream RUN` solve publishes.
     Listen(commands::listen::ListenArgs),
 }
@@ -67,6 +70,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
         Command::Demo(args) => commands::demo::run(&args, out),
         Command::Listen(args) => commands::listen::run(&args, out),
         Command::Inspect(args) => commands::inspect::run(&args, out),
+        Command::Schema(args) => commands::schema::run(&args, out),
     };
     match result {
         Ok(()) => exit::SUCCESS,

@@ -282,7 +282,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             ));
         }
     };
-    let settings = settings(task, src)?;
+    let settings = settings(&task.settings, src)?;
     // The IK guess, time-parameterized by a spline (zero end velocities).
     let ik = ik_interpolation(
         &chain,
@@ -404,9 +404,14 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     })
 }
 
-/// The task's algorithm settings over the defaults.
-fn settings(task: &TaskFile, src: Source<'_>) -> Result<PtrSettings, LocatedError> {
-    let s = &task.settings;
+/// Algorithm settings of a task or problem file over the defaults.
+///
+/// # Errors
+/// An unusable value, located in the file.
+pub fn settings(
+    s: &crate::task::SettingsSpec,
+    src: Source<'_>,
+) -> Result<PtrSettings, LocatedError> {
     let mut p = PtrSettings::default();
     if let Some(v) = s.max_iterations {
         p.max_iterations = v;
@@ -422,6 +427,31 @@ fn settings(task: &TaskFile, src: Source<'_>) -> Result<PtrSettings, LocatedErro
     }
     if let Some(v) = s.eps_vb {
         p.eps_vb = v;
+    }
+    if let Some(v) = s.lam_tr {
+        p.lam_tr = v;
+        p.lam_tr_min = p.lam_tr_min.min(v);
+        p.lam_tr_max = p.lam_tr_max.max(v);
+    }
+    if let Some(v) = s.lam_vc {
+        p.lam_vc = v;
+        p.lam_vc_max = p.lam_vc_max.max(v);
+    }
+    if let Some(v) = s.lam_vb {
+        p.lam_vb = v;
+        p.lam_vc_max = p.lam_vc_max.max(v);
+    }
+    if let Some(t) = &s.trust_region {
+        p.trust_region = match t.get_ref().as_str() {
+            "adaptive" => PtrSettings::default().trust_region,
+            "constant" => armature_scvx::TrustRegionUpdate::Constant,
+            other => {
+                return Err(src.error(
+                    t,
+                    format!("trust_region '{other}': give \"adaptive\" or \"constant\""),
+                ));
+            }
+        };
     }
     if let Some(dt) = &s.dense_dt {
         p.dense_dt = *dt.get_ref();

@@ -31,14 +31,18 @@ fn register_font() {
 ///
 /// # Errors
 /// Drawing or writing failures ([`exit::IO`]).
-pub fn write_plots(plan: &Plan, solution: &Solution, dir: &Path) -> Result<Vec<PathBuf>, CliError> {
+pub fn write_plots(
+    plan: Option<&Plan>,
+    solution: &Solution,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, CliError> {
     register_font();
     crate::output::ensure_dir(dir)?;
     let mut written = Vec::new();
     // One plot as SVG (rendered in memory, written atomically) and PNG (rendered to a
     // temporary file, renamed).
     macro_rules! plot {
-        ($name:expr, $size:expr, $draw:ident) => {{
+        ($name:expr, $size:expr, $draw:ident, $plan:expr) => {{
             let name: &str = $name;
             let fail = |e: Box<dyn Error>| CliError {
                 message: format!("plot {name}: {e}"),
@@ -47,7 +51,7 @@ pub fn write_plots(plan: &Plan, solution: &Solution, dir: &Path) -> Result<Vec<P
             let mut text = String::new();
             {
                 let root = SVGBackend::with_string(&mut text, $size).into_drawing_area();
-                $draw(&root, plan, solution).map_err(fail)?;
+                $draw(&root, $plan, solution).map_err(fail)?;
                 root.present().map_err(|e| fail(e.into()))?;
             }
             let svg_path = dir.join(format!("{name}.svg"));
@@ -57,7 +61,7 @@ pub fn write_plots(plan: &Plan, solution: &Solution, dir: &Path) -> Result<Vec<P
             let tmp = dir.join(format!(".{name}.tmp-{}.png", std::process::id()));
             let drawn = (|| -> Result<(), Box<dyn Error>> {
                 let root = BitMapBackend::new(&tmp, $size).into_drawing_area();
-                $draw(&root, plan, solution)?;
+                $draw(&root, $plan, solution)?;
                 root.present()?;
                 Ok(())
             })();
@@ -69,10 +73,15 @@ pub fn write_plots(plan: &Plan, solution: &Solution, dir: &Path) -> Result<Vec<P
             written.push(png_path);
         }};
     }
-    plot!("joints", (1200, 1000), joints);
-    plot!("convergence", (900, 600), convergence);
-    plot!("path", (1200, 600), path);
-    plot!("arm", (1200, 600), arm);
+    plot!("convergence", (900, 600), convergence, &());
+    match plan {
+        Some(plan) => {
+            plot!("joints", (1200, 1000), joints, plan);
+            plot!("path", (1200, 600), path, plan);
+            plot!("arm", (1200, 600), arm, plan);
+        }
+        None => plot!("trajectory", (1200, 800), series_plot, &()),
+    }
     Ok(written)
 }
 
@@ -169,10 +178,47 @@ where
     Ok(())
 }
 
+/// Every state and control of a problem file against time, one panel each.
+fn series_plot<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    _plan: &(),
+    s: &Solution,
+) -> Result<(), Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let names: Vec<&String> = s.trajectory.keys().filter(|k| *k != "time").collect();
+    let panels = root.split_evenly((names.len().max(1), 1));
+    let tf = s.final_time.max(1e-9);
+    for (area, name) in panels.iter().zip(names) {
+        let (t, rows) = series(s, name);
+        let y = range(rows.iter().flatten().copied(), 0.05);
+        let mut chart = ChartBuilder::on(area)
+            .caption(name.as_str(), ("sans-serif", 16))
+            .margin(6)
+            .x_label_area_size(25)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..tf, y)?;
+        chart.configure_mesh().x_desc("time (s)").light_line_style(WHITE).draw()?;
+        let width = rows.first().map_or(0, Vec::len);
+        for j in 0..width {
+            chart.draw_series(LineSeries::new(
+                t.iter().zip(rows).map(|(t, r)| (t[0], r[j])),
+                color(j).stroke_width(2),
+            ))?;
+            let nodes = s.nodes[name.as_str()].iter().zip(&s.nodes["time"]);
+            chart
+                .draw_series(nodes.map(|(r, t)| Circle::new((t[0], r[j]), 3, color(j).filled())))?;
+        }
+    }
+    Ok(())
+}
+
 /// J_tr, J_vc, J_vb and the largest defect per iteration (log scale), and the cost.
 fn convergence<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    _plan: &Plan,
+    _plan: &(),
     s: &Solution,
 ) -> Result<(), Box<dyn Error>>
 where

@@ -37,7 +37,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 /// A parsed task file (values keep their positions in the file for error messages).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TaskFile {
     /// The robot and its dynamics.
@@ -55,9 +55,11 @@ pub struct TaskFile {
     pub orientation: Vec<OrientationSpec>,
     /// The end effector stays above this height (m), in continuous time.
     #[serde(default)]
+    #[schemars(with = "Option<f64>")]
     pub table_height: Option<Spanned<f64>>,
     /// Capsules, self-collision and obstacles.
     #[serde(default)]
+    #[schemars(with = "Option<CollisionSpec>")]
     pub collision: Option<Spanned<CollisionSpec>>,
     /// Initial guess.
     #[serde(default)]
@@ -68,11 +70,12 @@ pub struct TaskFile {
 }
 
 /// The robot: kinematics and simple dynamics `q̈ = τ / I`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RobotSpec {
     /// A built-in name, or a path (relative to the task file) to a `.toml` screw table or a
     /// `.urdf`.
+    #[schemars(with = "String")]
     pub name: Spanned<String>,
     /// URDF base link.
     #[serde(default)]
@@ -81,17 +84,20 @@ pub struct RobotSpec {
     #[serde(default)]
     pub tip: Option<String>,
     /// Joint inertias (one per joint, > 0).
+    #[schemars(with = "Vec<f64>")]
     pub inertia: Spanned<Vec<f64>>,
     /// Velocity limit: one value or one per joint (default: the robot's).
     #[serde(default)]
+    #[schemars(with = "Option<Limit>")]
     pub velocity_limit: Option<Spanned<Limit>>,
     /// Torque limit: one value or one per joint (default: the robot's).
     #[serde(default)]
+    #[schemars(with = "Option<Limit>")]
     pub torque_limit: Option<Spanned<Limit>>,
 }
 
 /// One limit for all joints, or one per joint.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum Limit {
     /// The same for every joint.
@@ -101,13 +107,15 @@ pub enum Limit {
 }
 
 /// Final time: free in `[min, max]`, minimized by default.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TimeSpec {
     /// Upper bound (s).
+    #[schemars(with = "f64")]
     pub max: Spanned<f64>,
     /// Lower bound (s). Default 0.
     #[serde(default)]
+    #[schemars(with = "Option<f64>")]
     pub min: Option<Spanned<f64>>,
     /// Minimize the final time. Default true.
     #[serde(default = "yes")]
@@ -115,38 +123,45 @@ pub struct TimeSpec {
 }
 
 /// Nodes: a count, or nodes per segment between waypoints (default 2).
-#[derive(Debug, Clone, Default, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NodesSpec {
     /// Nodes per segment between consecutive waypoints.
     #[serde(default)]
+    #[schemars(with = "Option<usize>")]
     pub per_segment: Option<Spanned<usize>>,
     /// Total node count (waypoints then need explicit `node`s).
     #[serde(default)]
+    #[schemars(with = "Option<usize>")]
     pub count: Option<Spanned<usize>>,
 }
 
 /// A waypoint.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WaypointSpec {
     /// Unique name.
+    #[schemars(with = "String")]
     pub name: Spanned<String>,
     /// End-effector position (m).
+    #[schemars(with = "[f64; 3]")]
     pub position: Spanned<[f64; 3]>,
     /// Orientation `[w, x, y, z]` used by the IK guess, or `"free"`.
     #[serde(default)]
+    #[schemars(with = "Option<OrientationValue>")]
     pub orientation: Option<Spanned<OrientationValue>>,
     /// Radius of the ball the end effector must pass through (m). Default 0.01.
     #[serde(default)]
+    #[schemars(with = "Option<f64>")]
     pub tolerance: Option<Spanned<f64>>,
     /// Node index (default: position in the list × nodes per segment).
     #[serde(default)]
+    #[schemars(with = "Option<usize>")]
     pub node: Option<Spanned<usize>>,
 }
 
 /// A quaternion or `"free"`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum OrientationValue {
     /// `[w, x, y, z]`.
@@ -157,22 +172,26 @@ pub enum OrientationValue {
 
 /// An orientation held (within a tolerance) from one waypoint to another, in continuous
 /// time and at every node of the range.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OrientationSpec {
     /// The orientation `[w, x, y, z]`.
+    #[schemars(with = "[f64; 4]")]
     pub quaternion_wxyz: Spanned<[f64; 4]>,
     /// Largest rotation away from it (degrees, > 0).
+    #[schemars(with = "f64")]
     pub tolerance_deg: Spanned<f64>,
     /// First waypoint of the range.
+    #[schemars(with = "String")]
     pub from: Spanned<String>,
     /// Last waypoint of the range.
+    #[schemars(with = "String")]
     pub to: Spanned<String>,
 }
 
 /// Collision: capsule links between keypoints, obstacles, pair options, and the clearance
 /// kept from every pair (the `armature-collision` scene format plus `margin`).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionSpec {
     /// Clearance kept (m). Default 0.002: the continuous-time integral lets a trajectory
@@ -190,10 +209,78 @@ pub struct CollisionSpec {
     pub extra: Vec<(String, String)>,
     /// Capsule links.
     #[serde(default)]
+    #[schemars(with = "Vec<LinkSchema>")]
     pub links: Vec<armature_collision::LinkSpec>,
     /// Obstacles.
     #[serde(default)]
+    #[schemars(with = "Vec<ObstacleSchema>")]
     pub obstacles: Vec<armature_collision::ObstacleSpec>,
+}
+
+/// Schema of a capsule link (mirrors `armature_collision::LinkSpec`).
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct LinkSchema {
+    /// Start keypoint.
+    start: String,
+    /// End keypoint.
+    end: String,
+    /// Radius (m, ≥ 0).
+    radius: f64,
+}
+
+/// Schema of an obstacle: a name and exactly one shape (mirrors
+/// `armature_collision::ObstacleSpec`).
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct ObstacleSchema {
+    /// Name.
+    name: String,
+    /// A ball: `{ center = [x, y, z], radius = r }`.
+    sphere: Option<SphereSchema>,
+    /// A box: `{ center, quaternion_wxyz (default identity), half_extents }`.
+    #[serde(rename = "box")]
+    cuboid: Option<BoxSchema>,
+    /// A capsule: `{ a, b, radius }`.
+    capsule: Option<CapsuleSchema>,
+    /// A half-space `normal·x ≥ offset`: `{ normal, offset }`.
+    halfspace: Option<HalfSpaceSchema>,
+}
+
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct SphereSchema {
+    center: [f64; 3],
+    radius: f64,
+}
+
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct BoxSchema {
+    center: [f64; 3],
+    quaternion_wxyz: Option<[f64; 4]>,
+    half_extents: [f64; 3],
+}
+
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct CapsuleSchema {
+    a: [f64; 3],
+    b: [f64; 3],
+    radius: f64,
+}
+
+#[derive(Debug, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct HalfSpaceSchema {
+    normal: [f64; 3],
+    offset: f64,
 }
 
 fn default_margin() -> f64 {
@@ -205,12 +292,13 @@ fn yes() -> bool {
 }
 
 /// How the initial guess is made.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InitSpec {
     /// `"sequential"` (each node seeded from the previous: a continuous path; default) or
     /// `"parallel"`.
     #[serde(default = "sequential")]
+    #[schemars(with = "String")]
     pub ik: Spanned<String>,
     /// IK random restarts per node. Default 8.
     #[serde(default = "eight")]
@@ -232,7 +320,7 @@ fn eight() -> usize {
 }
 
 /// Algorithm settings (a subset of `armature_scvx::PtrSettings`; the rest keep defaults).
-#[derive(Debug, Clone, Default, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SettingsSpec {
     /// SCvx iteration cap.
@@ -243,6 +331,7 @@ pub struct SettingsSpec {
     pub substeps: Option<usize>,
     /// Dense propagation step (s).
     #[serde(default)]
+    #[schemars(with = "Option<f64>")]
     pub dense_dt: Option<Spanned<f64>>,
     /// Convergence tolerance of the trust-region step.
     #[serde(default)]
@@ -253,6 +342,20 @@ pub struct SettingsSpec {
     /// Convergence tolerance of nodal constraint violations.
     #[serde(default)]
     pub eps_vb: Option<f64>,
+    /// Trust-region policy: `"adaptive"` (default; accept/reject by the merit ratio) or
+    /// `"constant"` (the published PTR: every step accepted, λ_tr fixed).
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub trust_region: Option<Spanned<String>>,
+    /// Initial trust-region weight λ_tr.
+    #[serde(default)]
+    pub lam_tr: Option<f64>,
+    /// Initial virtual-control weight λ_vc.
+    #[serde(default)]
+    pub lam_vc: Option<f64>,
+    /// Initial virtual-buffer weight λ_vb.
+    #[serde(default)]
+    pub lam_vb: Option<f64>,
 }
 
 /// An error located in a file.

@@ -6,14 +6,14 @@ use std::path::PathBuf;
 use armature_scvx::NodalKind;
 use clap::Args;
 
-use crate::pipeline::plan;
-use crate::task::{Source, parse};
+use super::solve::{Loaded, load};
+use crate::task::Source;
 use crate::{CliError, exit};
 
 /// Arguments of `armature inspect`.
 #[derive(Debug, Clone, Args)]
 pub struct InspectArgs {
-    /// The task file (TOML).
+    /// The task or problem file (TOML).
     pub file: PathBuf,
 }
 
@@ -28,33 +28,36 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
         .map_err(|e| CliError::bad_input(format!("{}: {e}", args.file.display())))?;
     let name = args.file.display().to_string();
     let src = Source { name: &name, text: &text };
-    let task = parse(src).map_err(CliError::bad_input)?;
-    let plan = plan(&task, src, Some(&args.file)).map_err(CliError::bad_input)?;
-    let mut compiled = plan.compile().map_err(CliError::bad_input)?;
+    let Loaded { plan, mut compiled, .. } = load(src, Some(&args.file))?;
     let mut s = String::new();
-    let chain = &plan.chain;
-    let _ = writeln!(
-        s,
-        "robot {}: {} joints, keypoints {}",
-        chain.name(),
-        chain.dof(),
-        chain.keypoint_names().collect::<Vec<_>>().join(", ")
-    );
-    let _ = writeln!(s, "nodes: {} ({} segments)", plan.nodes, plan.nodes - 1);
-    for w in &plan.waypoints {
+    if let Some(plan) = &plan {
+        let chain = &plan.chain;
         let _ = writeln!(
             s,
-            "  waypoint {:<12} node {:>3}  position {:?} ± {} m",
-            w.name, w.node, w.position, w.tolerance
+            "robot {}: {} joints, keypoints {}",
+            chain.name(),
+            chain.dof(),
+            chain.keypoint_names().collect::<Vec<_>>().join(", ")
         );
+        let _ = writeln!(s, "nodes: {} ({} segments)", plan.nodes, plan.nodes - 1);
+        for w in &plan.waypoints {
+            let _ = writeln!(
+                s,
+                "  waypoint {:<12} node {:>3}  position {:?} ± {} m",
+                w.name, w.node, w.position, w.tolerance
+            );
+        }
+        let ik_ok = plan.ik.nodes.iter().filter(|r| r.converged).count();
+        let _ = writeln!(
+            s,
+            "initial guess: IK {ik_ok}/{} nodes converged, spline duration {:.4} s",
+            plan.nodes,
+            plan.dilation_guess[..plan.nodes - 1].iter().sum::<f64>() / (plan.nodes - 1) as f64
+        );
+    } else {
+        let nodes = compiled.ptr().ocp().nodes;
+        let _ = writeln!(s, "problem file: {nodes} nodes ({} segments)", nodes - 1);
     }
-    let ik_ok = plan.ik.nodes.iter().filter(|r| r.converged).count();
-    let _ = writeln!(
-        s,
-        "initial guess: IK {ik_ok}/{} nodes converged, spline duration {:.4} s",
-        plan.nodes,
-        plan.dilation_guess[..plan.nodes - 1].iter().sum::<f64>() / (plan.nodes - 1) as f64
-    );
     let ocp = compiled.ptr().ocp().clone();
     let d = &ocp.dynamics;
     let _ = writeln!(s, "\nstates ({}):", d.n_x());

@@ -7,4 +7,5 @@ pub mod ik;
 pub mod inspect;
 pub mod listen;
 pub mod robot;
+pub mod schema;
 pub mod solve;

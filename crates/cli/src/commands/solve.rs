@@ -58,6 +58,39 @@ pub fn run(args: &SolveArgs, out: &mut dyn std::io::Write) -> Result<(), CliErro
     run_task(Source { name: &name, text: &text }, Some(&args.file), &args.output, out)
 }
 
+/// A task or problem file, checked and compiled.
+#[derive(Debug)]
+pub struct Loaded {
+    /// The task's plan (robot, waypoints, …); `None` for a problem file.
+    pub plan: Option<crate::pipeline::Plan>,
+    /// The compiled problem with its guess.
+    pub compiled: armature_scvx::CompiledProblem,
+    /// Keypoint names (the frames block of streamed trajectories).
+    pub keypoints: Vec<String>,
+}
+
+/// Parses, checks and compiles a task file or a problem file (recognised by its
+/// `[[states]]`).
+///
+/// # Errors
+/// Bad input, as `file:line:col: reason`.
+pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
+    if crate::problem_file::is_problem(src.text) {
+        let file = crate::problem_file::parse(src).map_err(CliError::bad_input)?;
+        let (problem, settings) =
+            crate::problem_file::build(&file, src).map_err(CliError::bad_input)?;
+        let compiled = problem
+            .compile(settings)
+            .map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
+        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new() });
+    }
+    let task = parse(src).map_err(CliError::bad_input)?;
+    let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
+    let compiled = plan.compile().map_err(CliError::bad_input)?;
+    let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
+    Ok(Loaded { plan: Some(plan), compiled, keypoints })
+}
+
 /// Plans, solves and writes the outputs of one task.
 ///
 /// # Errors
@@ -74,33 +107,32 @@ pub fn run_task(
             eprintln!("{line}");
         }
     };
-    let task = parse(src).map_err(CliError::bad_input)?;
-    let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
-    let converged_ik = plan.ik.nodes.iter().filter(|r| r.converged).count();
-    say(&format!(
-        "{}: {} joints, {} nodes, {} waypoints{}; IK initialization: {converged_ik}/{} nodes converged, largest joint step {:.3} rad",
-        src.name,
-        plan.chain.dof(),
-        plan.nodes,
-        plan.waypoints.len(),
-        plan.collision
-            .as_ref()
-            .map_or(String::new(), |m| format!(", {} collision pairs", m.pairs().len())),
-        plan.nodes,
-        plan.ik.max_joint_step
-    ));
-    let mut compiled = plan.compile().map_err(CliError::bad_input)?;
-    let d = compiled.ptr().dimensions();
-    say(&format!(
-        "subproblem: {} variables, {} equality + {} inequality rows, {} cones ({} rows), {} nonzeros; ready in {:.1} ms",
-        d.variables,
-        d.equality_rows,
-        d.inequality_rows,
-        d.second_order_cones,
-        d.cone_rows,
-        d.nonzeros,
-        t0.elapsed().as_secs_f64() * 1e3
-    ));
+    let loaded = load(src, path)?;
+    let Loaded { plan, mut compiled, keypoints } = loaded;
+    match &plan {
+        Some(plan) => {
+            let converged_ik = plan.ik.nodes.iter().filter(|r| r.converged).count();
+            say(&format!(
+                "{}: {} joints, {} nodes, {} waypoints{}; IK initialization: {converged_ik}/{} nodes converged, largest joint step {:.3} rad",
+                src.name,
+                plan.chain.dof(),
+                plan.nodes,
+                plan.waypoints.len(),
+                plan.collision
+                    .as_ref()
+                    .map_or(String::new(), |m| format!(", {} collision pairs", m.pairs().len())),
+                plan.nodes,
+                plan.ik.max_joint_step
+            ));
+        }
+        None => say(&format!(
+            "{}: problem file, {} states, {} controls, {} nodes",
+            src.name,
+            compiled.ptr().ocp().dynamics.n_x(),
+            compiled.ptr().ocp().dynamics.n_u(),
+            compiled.ptr().ocp().nodes
+        )),
+    }
     let mut streamer = match &o.stream {
         Some(run) => {
             if !(o.linger.is_finite() && o.linger >= 0.0) {
@@ -109,8 +141,7 @@ pub fn run_task(
                     o.linger
                 )));
             }
-            let names: Vec<String> = plan.chain.keypoint_names().map(str::to_string).collect();
-            let s = Streamer::new(run, &names)
+            let s = Streamer::new(run, &keypoints)
                 .map_err(|e| CliError::bad_input(format!("--stream: {e}")))?;
             say(&format!("streaming on armature/{run}/trajectory and armature/{run}/progress"));
             Some(s)
@@ -180,7 +211,7 @@ pub fn run_task(
     let mut written =
         output::write_solution(&solution, o.output.as_deref(), o.csv.as_deref(), out)?;
     if let Some(dir) = &o.plot {
-        written.extend(crate::plot::write_plots(&plan, &solution, dir)?);
+        written.extend(crate::plot::write_plots(plan.as_ref(), &solution, dir)?);
     }
     for p in &written {
         say(&format!("wrote {}", p.display()));

@@ -1,0 +1,535 @@
+//! Problem files: what power users write — states, controls, parameters, dynamics,
+//! constraints and outputs as expression strings (parsed by `armature-symbolic`), like
+//! OpenSCvx's YAML loader, in TOML.
+//!
+//! ```toml
+//! nodes = 21
+//!
+//! [time]
+//! max = 10.0            # free final time in [min, max], minimized (or: fixed = 2.0)
+//! guess = 3.0
+//!
+//! [[states]]
+//! name = "p"
+//! initial = [0.0]       # per component: a number or "free"
+//! final = [1.0]         # a number, "free", "minimize" or "maximize"
+//! dynamics = "v"        # d p / dt
+//!
+//! [[states]]
+//! name = "v"
+//! min = -10.0           # one value for every component, or a list
+//! max = 10.0
+//! initial = [0.0]
+//! final = [0.0]
+//! dynamics = "a"
+//!
+//! [[controls]]
+//! name = "a"
+//! min = -1.0
+//! max = 1.0
+//!
+//! [parameters]
+//! v_max = 1.5           # a number or a list; change it without recompiling
+//!
+//! [[constraints]]
+//! expr = "v <= v_max"
+//! ctcs = true           # in continuous time (default: at the nodes)
+//!
+//! [outputs]
+//! speed = "abs(v)"
+//! ```
+//!
+//! Errors in expressions point at the offending character in the file (`file:line:col`).
+
+use std::collections::BTreeMap;
+
+use armature_scvx::{
+    Ball, Boundary, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, PtrSettings, State,
+    Time,
+};
+use armature_symbolic::{Expr, Shape, SymbolTable, SymbolicError, parse_constraint, parse_expr};
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::task::{LocatedError, SettingsSpec, Source};
+
+/// A parsed problem file.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemFile {
+    /// Number of nodes (≥ 2).
+    #[schemars(with = "usize")]
+    pub nodes: Spanned<usize>,
+    /// Final time.
+    pub time: ProblemTime,
+    /// States, each with its dynamics.
+    pub states: Vec<StateSpec>,
+    /// Controls.
+    #[serde(default)]
+    pub controls: Vec<ControlSpec>,
+    /// Parameters: name = number or list.
+    #[serde(default)]
+    #[schemars(with = "BTreeMap<String, Values>")]
+    pub parameters: BTreeMap<String, Spanned<Values>>,
+    /// Constraints.
+    #[serde(default)]
+    pub constraints: Vec<ConstraintSpec>,
+    /// Nodal second-order-cone constraints `‖expr‖ ≤ radius`.
+    #[serde(default)]
+    pub balls: Vec<BallSpec>,
+    /// Algebraic outputs: name = expression, evaluated along the solution.
+    #[serde(default)]
+    #[schemars(with = "BTreeMap<String, String>")]
+    pub outputs: BTreeMap<String, Spanned<String>>,
+    /// Also enforce state bounds between nodes (ReLU CTCS, ε = 1e-6). Default true.
+    #[serde(default = "yes")]
+    pub state_bounds_ctcs: bool,
+    /// Algorithm settings.
+    #[serde(default)]
+    pub settings: SettingsSpec,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A number, or a list of numbers.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum Values {
+    /// One number (for every component).
+    One(f64),
+    /// One per component.
+    Many(Vec<f64>),
+}
+
+/// A boundary condition entry: a number or a word.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum Condition {
+    /// Fixed to this value.
+    Value(f64),
+    /// `"free"`, `"minimize"` or `"maximize"`.
+    Word(String),
+}
+
+/// Boundary conditions: one for every component, or a list.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum Conditions {
+    /// One for every component.
+    One(Condition),
+    /// One per component.
+    Many(Vec<Condition>),
+}
+
+/// Final time: `fixed = T`, or free in `[min, max]` from `guess`.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemTime {
+    /// A fixed final time (s).
+    #[serde(default)]
+    #[schemars(with = "Option<f64>")]
+    pub fixed: Option<Spanned<f64>>,
+    /// Upper bound of a free final time (s).
+    #[serde(default)]
+    #[schemars(with = "Option<f64>")]
+    pub max: Option<Spanned<f64>>,
+    /// Lower bound (s). Default 0.
+    #[serde(default)]
+    pub min: Option<f64>,
+    /// Initial guess (s). Default (min + max)/2.
+    #[serde(default)]
+    pub guess: Option<f64>,
+    /// Minimize the final time. Default true.
+    #[serde(default = "yes")]
+    pub minimize: bool,
+}
+
+/// A state variable.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StateSpec {
+    /// Name (used in expressions).
+    #[schemars(with = "String")]
+    pub name: Spanned<String>,
+    /// Number of components. Default 1.
+    #[serde(default = "one")]
+    pub size: usize,
+    /// Lower bounds. Default none.
+    #[serde(default)]
+    #[schemars(with = "Option<Values>")]
+    pub min: Option<Spanned<Values>>,
+    /// Upper bounds. Default none.
+    #[serde(default)]
+    #[schemars(with = "Option<Values>")]
+    pub max: Option<Spanned<Values>>,
+    /// Initial conditions. Default free.
+    #[serde(default)]
+    #[schemars(with = "Option<Conditions>")]
+    pub initial: Option<Spanned<Conditions>>,
+    /// Final conditions. Default free.
+    #[serde(default, rename = "final")]
+    #[schemars(with = "Option<Conditions>")]
+    pub terminal: Option<Spanned<Conditions>>,
+    /// Right-hand side `d name / dt`, an expression of the states, controls and parameters.
+    #[schemars(with = "String")]
+    pub dynamics: Spanned<String>,
+}
+
+fn one() -> usize {
+    1
+}
+
+/// A control variable.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ControlSpec {
+    /// Name.
+    #[schemars(with = "String")]
+    pub name: Spanned<String>,
+    /// Number of components. Default 1.
+    #[serde(default = "one")]
+    pub size: usize,
+    /// Lower bounds.
+    #[serde(default)]
+    #[schemars(with = "Option<Values>")]
+    pub min: Option<Spanned<Values>>,
+    /// Upper bounds.
+    #[serde(default)]
+    #[schemars(with = "Option<Values>")]
+    pub max: Option<Spanned<Values>>,
+    /// `"foh"` (first-order hold, default) or `"zoh"`.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub hold: Option<Spanned<String>>,
+}
+
+/// A constraint `lhs <= rhs`, `lhs >= rhs` or `lhs == rhs`.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintSpec {
+    /// The comparison.
+    #[schemars(with = "String")]
+    pub expr: Spanned<String>,
+    /// Name for reports. Default: the expression.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Enforce in continuous time (CTCS). Default false (at nodes).
+    #[serde(default)]
+    pub ctcs: bool,
+    /// Nodal: these nodes (default all).
+    #[serde(default)]
+    #[schemars(with = "Option<Vec<usize>>")]
+    pub nodes: Option<Spanned<Vec<usize>>>,
+    /// A node range `[first, last]` (CTCS interval or nodal range).
+    #[serde(default)]
+    #[schemars(with = "Option<[usize; 2]>")]
+    pub over: Option<Spanned<[usize; 2]>>,
+    /// CTCS penalty: `"squared_relu"` (default) or `"relu"`.
+    #[serde(default)]
+    #[schemars(with = "Option<PenaltyName>")]
+    pub penalty: Option<Penalty>,
+    /// CTCS increment per segment. Default 1e-4.
+    #[serde(default)]
+    pub eps: Option<f64>,
+    /// CTCS group label. Default 0.
+    #[serde(default)]
+    pub group: Option<usize>,
+}
+
+/// CTCS penalty names (for the schema).
+#[derive(Debug, Clone, Copy, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+#[allow(dead_code)]
+enum PenaltyName {
+    /// `max(0, g)²`.
+    SquaredRelu,
+    /// `max(0, g)`.
+    Relu,
+}
+
+/// A nodal ball.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BallSpec {
+    /// The vector expression.
+    #[schemars(with = "String")]
+    pub expr: Spanned<String>,
+    /// Radius (> 0).
+    #[schemars(with = "f64")]
+    pub radius: Spanned<f64>,
+    /// Nodes.
+    #[schemars(with = "Vec<usize>")]
+    pub nodes: Spanned<Vec<usize>>,
+    /// Name. Default: the expression.
+    #[serde(default)]
+    pub name: Option<String>,
+}
+
+/// Parses a problem file.
+///
+/// # Errors
+/// Syntax, unknown keys, wrong types, as `file:line:col: reason`.
+pub fn parse(src: Source<'_>) -> Result<ProblemFile, LocatedError> {
+    toml::from_str(src.text).map_err(|e| {
+        let at = e.span().map_or(0, |s| s.start);
+        src.error_at(at, e.message().trim_end().to_string())
+    })
+}
+
+/// An expression error located at its character in the file (inside the string value).
+fn expr_error(src: Source<'_>, at: &Spanned<String>, e: SymbolicError) -> LocatedError {
+    match e {
+        SymbolicError::Parse { message, column, source_text, .. } => {
+            // The value starts with its quote; offsets are exact for strings without escapes.
+            let byte =
+                source_text.char_indices().nth(column - 1).map_or(source_text.len(), |(b, _)| b);
+            src.error_at(at.span().start + 1 + byte, format!("{message} in \"{source_text}\""))
+        }
+        other => src.error(at, other.to_string()),
+    }
+}
+
+fn values(
+    src: Source<'_>,
+    v: &Option<Spanned<Values>>,
+    n: usize,
+    default: f64,
+    what: &str,
+) -> Result<Vec<f64>, LocatedError> {
+    match v {
+        None => Ok(vec![default; n]),
+        Some(s) => {
+            let out = match s.get_ref() {
+                Values::One(x) => vec![*x; n],
+                Values::Many(v) => v.clone(),
+            };
+            if out.len() != n {
+                return Err(
+                    src.error(s, format!("{what}: {} values for {n} components", out.len()))
+                );
+            }
+            if out.iter().any(|x| x.is_nan()) {
+                return Err(src.error(s, format!("{what}: NaN")));
+            }
+            Ok(out)
+        }
+    }
+}
+
+fn conditions(
+    src: Source<'_>,
+    c: &Option<Spanned<Conditions>>,
+    n: usize,
+    what: &str,
+) -> Result<Vec<Boundary>, LocatedError> {
+    let Some(c) = c else { return Ok(vec![Boundary::Free; n]) };
+    let list = match c.get_ref() {
+        Conditions::One(x) => vec![x.clone(); n],
+        Conditions::Many(v) => v.clone(),
+    };
+    if list.len() != n {
+        return Err(src.error(c, format!("{what}: {} conditions for {n} components", list.len())));
+    }
+    list.iter()
+        .map(|x| match x {
+            Condition::Value(v) if v.is_finite() => Ok(Boundary::Fixed(*v)),
+            Condition::Value(v) => Err(src.error(c, format!("{what}: {v} is not finite"))),
+            Condition::Word(w) => match w.as_str() {
+                "free" => Ok(Boundary::Free),
+                "minimize" => Ok(Boundary::Minimize),
+                "maximize" => Ok(Boundary::Maximize),
+                _ => Err(src.error(
+                    c,
+                    format!("{what}: '{w}': give a number, \"free\", \"minimize\" or \"maximize\""),
+                )),
+            },
+        })
+        .collect()
+}
+
+/// Builds the [`Problem`] and its settings from a problem file.
+///
+/// # Errors
+/// The first problem found, as `file:line:col: reason` (expression errors at their
+/// character).
+pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSettings), LocatedError> {
+    let nodes = *file.nodes.get_ref();
+    if nodes < 2 {
+        return Err(src.error(&file.nodes, "nodes must be at least 2"));
+    }
+    let mut symbols = SymbolTable::new();
+    for (name, v) in &file.parameters {
+        let vals = match v.get_ref() {
+            Values::One(x) => vec![*x],
+            Values::Many(v) => v.clone(),
+        };
+        if vals.is_empty() || vals.iter().any(|x| !x.is_finite()) {
+            return Err(src.error(v, format!("parameter '{name}' needs finite values")));
+        }
+        let shape = if matches!(v.get_ref(), Values::One(_)) {
+            Shape::Scalar
+        } else {
+            Shape::Vector(vals.len())
+        };
+        symbols.insert_leaf(&Expr::parameter(name, shape, &vals));
+    }
+    let mut states = Vec::new();
+    for s in &file.states {
+        let name = s.name.get_ref();
+        if s.size == 0 {
+            return Err(src.error(&s.name, format!("state '{name}': size must be at least 1")));
+        }
+        let what = format!("state '{name}'");
+        let mut st = State::new(name, s.size).bounds(
+            &values(src, &s.min, s.size, f64::NEG_INFINITY, &format!("{what} min"))?,
+            &values(src, &s.max, s.size, f64::INFINITY, &format!("{what} max"))?,
+        );
+        st.initial = conditions(src, &s.initial, s.size, &format!("{what} initial"))?;
+        st.terminal = conditions(src, &s.terminal, s.size, &format!("{what} final"))?;
+        symbols.insert_leaf(&st.expr());
+        states.push(st);
+    }
+    let mut controls = Vec::new();
+    for c in &file.controls {
+        let name = c.name.get_ref();
+        if c.size == 0 {
+            return Err(src.error(&c.name, format!("control '{name}': size must be at least 1")));
+        }
+        let what = format!("control '{name}'");
+        let mut ctl = Control::new(name, c.size).bounds(
+            &values(src, &c.min, c.size, f64::NEG_INFINITY, &format!("{what} min"))?,
+            &values(src, &c.max, c.size, f64::INFINITY, &format!("{what} max"))?,
+        );
+        if let Some(h) = &c.hold {
+            ctl.foh = match h.get_ref().as_str() {
+                "foh" => true,
+                "zoh" => false,
+                other => {
+                    return Err(src.error(h, format!("hold '{other}': give \"foh\" or \"zoh\"")));
+                }
+            };
+        }
+        symbols.insert_leaf(&ctl.expr());
+        controls.push(ctl);
+    }
+    let dynamics = file
+        .states
+        .iter()
+        .map(|s| {
+            parse_expr(s.dynamics.get_ref(), &symbols).map_err(|e| expr_error(src, &s.dynamics, e))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut constraints = Vec::new();
+    for c in &file.constraints {
+        let mut k = parse_constraint(c.expr.get_ref(), &symbols)
+            .map_err(|e| expr_error(src, &c.expr, e))?;
+        if c.ctcs {
+            k = k.ctcs();
+        }
+        if let Some(n) = &c.nodes {
+            if c.ctcs {
+                return Err(src.error(n, "a continuous-time constraint takes `over`, not `nodes`"));
+            }
+            k = k.at(n.get_ref());
+        }
+        if let Some(o) = &c.over {
+            let [a, b] = *o.get_ref();
+            k = k.over(a, b);
+        }
+        if let Some(name) = &c.name {
+            k = k.named(name.clone());
+        }
+        k.validate(nodes).map_err(|e| src.error(&c.expr, e.to_string()))?;
+        let mut ctcs = CtcsOptions::default();
+        if let Some(p) = c.penalty {
+            ctcs.penalty = p;
+        }
+        if let Some(e) = c.eps {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(src.error(&c.expr, format!("eps {e} must be > 0")));
+            }
+            ctcs.eps = e;
+        }
+        if let Some(g) = c.group {
+            ctcs.group = g;
+        }
+        constraints.push(ProblemConstraint { constraint: k, ctcs });
+    }
+    let mut balls = Vec::new();
+    for b in &file.balls {
+        let g = parse_expr(b.expr.get_ref(), &symbols).map_err(|e| expr_error(src, &b.expr, e))?;
+        let radius = *b.radius.get_ref();
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(src.error(&b.radius, format!("radius {radius} must be > 0")));
+        }
+        if let Some(k) = b.nodes.get_ref().iter().find(|&&k| k >= nodes) {
+            return Err(
+                src.error(&b.nodes, format!("node {k} is beyond the last node {}", nodes - 1))
+            );
+        }
+        balls.push(Ball {
+            name: b.name.clone().unwrap_or_else(|| b.expr.get_ref().clone()),
+            g,
+            radius,
+            nodes: b.nodes.get_ref().clone(),
+        });
+    }
+    let outputs = file
+        .outputs
+        .iter()
+        .map(|(name, e)| {
+            Ok((
+                name.clone(),
+                parse_expr(e.get_ref(), &symbols).map_err(|err| expr_error(src, e, err))?,
+            ))
+        })
+        .collect::<Result<Vec<_>, LocatedError>>()?;
+    let time = match (&file.time.fixed, &file.time.max) {
+        (Some(t), None) => {
+            if !(t.get_ref().is_finite() && *t.get_ref() > 0.0) {
+                return Err(src.error(t, "fixed time must be > 0"));
+            }
+            Time::Fixed(*t.get_ref())
+        }
+        (None, Some(m)) => {
+            let (min, max) = (file.time.min.unwrap_or(0.0), *m.get_ref());
+            if !(max.is_finite() && min.is_finite() && 0.0 <= min && min < max) {
+                return Err(
+                    src.error(m, format!("time bounds [{min}, {max}] must satisfy 0 ≤ min < max"))
+                );
+            }
+            let guess = file.time.guess.unwrap_or(0.5 * (min + max));
+            if !(min..=max).contains(&guess) {
+                return Err(src.error(m, format!("time guess {guess} is outside [{min}, {max}]")));
+            }
+            Time::Free { min, max, guess, minimize: file.time.minimize }
+        }
+        (Some(t), Some(_)) => return Err(src.error(t, "give either fixed or max, not both")),
+        (None, None) => return Err(src.error(&file.nodes, "[time] needs fixed or max")),
+    };
+    let settings = crate::pipeline::settings(&file.settings, src)?;
+    let problem = Problem {
+        nodes,
+        states,
+        controls,
+        dynamics,
+        time,
+        constraints,
+        balls,
+        outputs,
+        state_bounds_ctcs: file.state_bounds_ctcs.then_some(CtcsOptions {
+            penalty: Penalty::Relu,
+            eps: 1e-6,
+            group: 0,
+        }),
+        dilation: None,
+    };
+    Ok((problem, settings))
+}
+
+/// Whether a TOML text is a problem file (it has `states`) rather than a task file.
+pub fn is_problem(text: &str) -> bool {
+    text.parse::<toml::Table>().map(|t| t.contains_key("states")).unwrap_or(false)
+}

@@ -1,0 +1,114 @@
+//! Problem files (expressions), `armature schema`, and that the schemas accept the shipped
+//! examples and reject what the loaders reject.
+
+mod common;
+
+use common::{armature, temp_file};
+use serde_json::Value;
+
+const PROBLEM: &str = include_str!("../../../examples/double-integrator.toml");
+
+fn example(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples").join(name)
+}
+
+#[test]
+fn the_double_integrator_problem_file_reaches_the_analytic_time() {
+    let (code, stdout, stderr) =
+        armature(&["solve", example("double-integrator.toml").to_str().unwrap(), "-q", "-o", "-"]);
+    assert_eq!(code, 0, "{stderr}");
+    let r: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(r["status"], "converged");
+    let tf = r["final_time"].as_f64().unwrap();
+    assert!((tf - 2.1286).abs() / 2.1286 < 0.01, "{tf}");
+    // The speed limit holds on the dense trajectory (CTCS, ε = 1e-6), the output is there.
+    let vmax = r["trajectory"]["v"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v[0].as_f64().unwrap().abs())
+        .fold(0.0, f64::max);
+    assert!(vmax < 0.7 * 1.01, "{vmax}");
+    assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);
+}
+
+fn bad(tag: &str, from: &str, to: &str, line_col: &str, reason: &str) {
+    assert!(PROBLEM.contains(from), "{tag}");
+    let path = temp_file(tag, "problem.toml", &PROBLEM.replacen(from, to, 1));
+    let out = path.with_file_name("out.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{tag}: {stderr}");
+    assert!(stderr.contains(&format!("problem.toml:{line_col}: ")), "{tag}: {stderr}");
+    assert!(stderr.contains(reason), "{tag}: {stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn expression_errors_point_at_their_character_in_the_file() {
+    let line = |needle: &str| PROBLEM.lines().position(|l| l.contains(needle)).unwrap() + 1;
+    // `dynamics = "v"` → `dynamics = "v + w"`: 'w' is at column 17 of its line.
+    let l = line("dynamics = \"v\"");
+    bad(
+        "unknown-name",
+        "dynamics = \"v\"",
+        "dynamics = \"v + w\"",
+        &format!("{l}:17"),
+        "unknown name 'w'",
+    );
+    let l = line("expr = \"abs(v) <= v_max\"");
+    bad(
+        "syntax",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"abs(v) <= * v_max\"",
+        &format!("{l}:19"),
+        "",
+    );
+    bad(
+        "no-comparison",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"abs(v)\"",
+        &format!("{l}:15"),
+        "comparison",
+    );
+    let l = line("kinetic_energy");
+    bad("shape", "0.5 * v**2", "[1, 2] + [1, 2, 3]", &format!("{l}:26"), "shapes vector(2) and vector(3)");
+    let l = line("initial = 0.0");
+    bad("condition", "initial = 0.0", "initial = \"fixed\"", &format!("{l}:11"), "give a number");
+    bad(
+        "unknown-key",
+        "guess = 3.0",
+        "guess = 3.0\nguesss = 2",
+        &format!("{}:1", line("guess = 3.0") + 1),
+        "unknown field",
+    );
+}
+
+#[test]
+fn schemas_accept_the_shipped_examples_and_reject_unknown_keys() {
+    for (format, files) in [
+        ("task", vec!["pick-and-place.toml", "pick-and-place-collision.toml"]),
+        ("problem", vec!["double-integrator.toml"]),
+    ] {
+        let (code, stdout, stderr) = armature(&["schema", format]);
+        assert_eq!(code, 0, "{stderr}");
+        let schema: Value = serde_json::from_str(&stdout).unwrap();
+        let validator = jsonschema::validator_for(&schema).unwrap();
+        for f in files {
+            let text = std::fs::read_to_string(example(f)).unwrap();
+            let instance: Value = toml::from_str(&text).unwrap();
+            let errors: Vec<String> =
+                validator.iter_errors(&instance).map(|e| e.to_string()).collect();
+            assert!(errors.is_empty(), "{f} against the {format} schema: {errors:?}");
+            // A misspelt key is rejected by the schema as by the loader.
+            let mut wrong = instance.clone();
+            wrong.as_object_mut().unwrap().insert("nodez".into(), Value::from(3));
+            assert!(!validator.is_valid(&wrong), "{f}");
+        }
+    }
+    // The task schema does not accept a problem file.
+    let (_, stdout, _) = armature(&["schema", "task"]);
+    let validator = jsonschema::validator_for(&serde_json::from_str(&stdout).unwrap()).unwrap();
+    let problem: Value = toml::from_str(PROBLEM).unwrap();
+    assert!(!validator.is_valid(&problem));
+}
