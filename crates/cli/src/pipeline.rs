@@ -134,19 +134,29 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     }
     let (nodes, per_segment) = match (&task.nodes.count, &task.nodes.per_segment) {
         (Some(c), None) => {
-            if *c.get_ref() < 2 {
-                return Err(src.error(c, "count must be at least 2"));
+            if !(2..=armature_scvx::MAX_NODES).contains(c.get_ref()) {
+                let max = armature_scvx::MAX_NODES;
+                return Err(src.error(c, format!("count must be 2 to {max}")));
             }
             (*c.get_ref(), None)
         }
         (None, per) => {
             let p = per.as_ref().map_or(2, |p| *p.get_ref());
-            if p == 0 {
-                return Err(
-                    src.error(per.as_ref().expect("0 was given"), "per_segment must be at least 1")
-                );
+            let n = p
+                .checked_mul(w.len() - 1)
+                .map(|n| n + 1)
+                .filter(|n| *n <= armature_scvx::MAX_NODES);
+            match (p, n) {
+                (1.., Some(n)) => (n, Some(p)),
+                _ => {
+                    let at = per.as_ref().expect("the default fits");
+                    let max = armature_scvx::MAX_NODES;
+                    return Err(src.error(
+                        at,
+                        format!("per_segment {p}: need 1 or more, and at most {max} nodes in all"),
+                    ));
+                }
             }
-            (p * (w.len() - 1) + 1, Some(p))
         }
         (Some(c), Some(_)) => {
             return Err(src.error(c, "give either count or per_segment, not both"));

@@ -267,6 +267,9 @@ pub struct BallSpec {
     pub name: Option<String>,
 }
 
+/// Largest size of one state or control vector.
+pub const MAX_SIZE: usize = 1_000;
+
 /// Parses a problem file.
 ///
 /// # Errors
@@ -356,8 +359,10 @@ fn conditions(
 /// character).
 pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSettings), LocatedError> {
     let nodes = *file.nodes.get_ref();
-    if nodes < 2 {
-        return Err(src.error(&file.nodes, "nodes must be at least 2"));
+    if !(2..=armature_scvx::MAX_NODES).contains(&nodes) {
+        return Err(
+            src.error(&file.nodes, format!("nodes must be 2 to {}", armature_scvx::MAX_NODES))
+        );
     }
     let mut symbols = SymbolTable::new();
     for (name, v) in &file.parameters {
@@ -378,8 +383,8 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
     let mut states = Vec::new();
     for s in &file.states {
         let name = s.name.get_ref();
-        if s.size == 0 {
-            return Err(src.error(&s.name, format!("state '{name}': size must be at least 1")));
+        if !(1..=MAX_SIZE).contains(&s.size) {
+            return Err(src.error(&s.name, format!("state '{name}': size must be 1 to {MAX_SIZE}")));
         }
         let what = format!("state '{name}'");
         let mut st = State::new(name, s.size).bounds(
@@ -394,8 +399,10 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
     let mut controls = Vec::new();
     for c in &file.controls {
         let name = c.name.get_ref();
-        if c.size == 0 {
-            return Err(src.error(&c.name, format!("control '{name}': size must be at least 1")));
+        if !(1..=MAX_SIZE).contains(&c.size) {
+            return Err(
+                src.error(&c.name, format!("control '{name}': size must be 1 to {MAX_SIZE}"))
+            );
         }
         let what = format!("control '{name}'");
         let mut ctl = Control::new(name, c.size).bounds(

@@ -72,7 +72,13 @@ fn expression_errors_point_at_their_character_in_the_file() {
         "comparison",
     );
     let l = line("kinetic_energy");
-    bad("shape", "0.5 * v**2", "[1, 2] + [1, 2, 3]", &format!("{l}:26"), "shapes vector(2) and vector(3)");
+    bad(
+        "shape",
+        "0.5 * v**2",
+        "[1, 2] + [1, 2, 3]",
+        &format!("{l}:26"),
+        "shapes vector(2) and vector(3)",
+    );
     let l = line("initial = 0.0");
     bad("condition", "initial = 0.0", "initial = \"fixed\"", &format!("{l}:11"), "give a number");
     bad(

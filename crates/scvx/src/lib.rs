@@ -12,7 +12,7 @@ pub use discretization::{
     DiscretizationWorkspace, Dynamics,
 };
 pub use problem::{
-    Ball, Boundary, CompiledProblem, Control, CtcsOptions, Problem, ProblemConstraint,
+    Ball, Boundary, CompiledProblem, Control, CtcsOptions, MAX_NODES, Problem, ProblemConstraint,
     ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
 };
 pub use ptr::{

@@ -57,6 +57,10 @@ use crate::{
     Ptr, PtrError, PtrResult, PtrSettings, Trajectory, Violation, ctcs_states,
 };
 
+/// Largest node count a [`Problem`] accepts (the subproblem grows linearly with it; this
+/// bound keeps absurd inputs from exhausting memory).
+pub const MAX_NODES: usize = 10_000;
+
 /// A boundary condition of one state component.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum Boundary {
@@ -421,8 +425,8 @@ impl Problem {
     pub fn compile(&self, settings: PtrSettings) -> Result<CompiledProblem, ProblemError> {
         settings.validate().map_err(PtrError::from)?;
         let nn = self.nodes;
-        if nn < 2 {
-            return Err(bad("nodes", format!("need at least 2, got {nn}")));
+        if !(2..=MAX_NODES).contains(&nn) {
+            return Err(bad("nodes", format!("need 2 to {MAX_NODES}, got {nn}")));
         }
         self.check_variables()?;
         let (s_lo, s_hi) = self.check_time()?;

@@ -152,20 +152,36 @@ struct Parser<'a> {
     toks: Vec<(Tok, usize)>,
     i: usize,
     symbols: &'a SymbolTable,
+    /// Current recursion depth (see [`MAX_NESTING`]).
+    depth: usize,
 }
+
+/// Deepest nesting of parentheses, brackets, calls and unary minus an expression may have:
+/// the parser and the expression graph's passes recurse, and untrusted input must not
+/// overflow the stack.
+pub const MAX_NESTING: usize = 64;
+
+/// Largest `n` of `identity(n)` in an expression string.
+pub const MAX_IDENTITY: usize = 1_000;
+
+/// Most tokens an expression may have (a long chain `x + x + …` builds a tree as deep as it
+/// is long).
+pub const MAX_TOKENS: usize = 1_000;
 
 fn lex(text: &str) -> Result<Vec<(Tok, usize)>, SymbolicError> {
     let b = text.as_bytes();
     let mut out = Vec::new();
     let mut i = 0;
     while i < b.len() {
+        // Bytes, not chars: only ASCII forms tokens, and the index stays on char boundaries
+        // (a UTF-8 continuation byte such as 0xA0 is not whitespace here).
         let c = b[i] as char;
-        if c.is_whitespace() {
+        if b[i].is_ascii_whitespace() {
             i += 1;
             continue;
         }
         let start = i;
-        let two = if i + 1 < b.len() { &text[i..i + 2] } else { "" };
+        let two = text.get(i..i + 2).unwrap_or("");
         let tok = match two {
             "<=" => Some(Tok::Le),
             ">=" => Some(Tok::Ge),
@@ -256,7 +272,18 @@ enum Sel {
 
 impl<'a> Parser<'a> {
     fn new(text: &'a str, symbols: &'a SymbolTable) -> Result<Self, SymbolicError> {
-        Ok(Parser { text, toks: lex(text)?, i: 0, symbols })
+        let toks = lex(text)?;
+        if toks.len() > MAX_TOKENS + 1 {
+            return Err(SymbolicError::parse(
+                format!(
+                    "expression of {} tokens is longer than the limit of {MAX_TOKENS}",
+                    toks.len() - 1
+                ),
+                text,
+                toks[MAX_TOKENS].1,
+            ));
+        }
+        Ok(Parser { text, toks, i: 0, symbols, depth: 0 })
     }
 
     fn peek(&self) -> &Tok {
@@ -356,7 +383,20 @@ impl<'a> Parser<'a> {
         }
     }
 
+    /// Every recursive path (parentheses, brackets, calls, `-`, `**`) passes through here.
     fn unary(&mut self) -> Result<Expr, SymbolicError> {
+        if self.depth >= MAX_NESTING {
+            return Err(
+                self.error_here(&format!("expression nested deeper than {MAX_NESTING} levels"))
+            );
+        }
+        self.depth += 1;
+        let out = self.unary_inner();
+        self.depth -= 1;
+        out
+    }
+
+    fn unary_inner(&mut self) -> Result<Expr, SymbolicError> {
         if *self.peek() == Tok::Minus {
             self.next();
             let e = self.unary()?;
@@ -669,9 +709,14 @@ impl<'a> Parser<'a> {
             "identity" => {
                 arity(1)?;
                 match a(0).constant_value() {
-                    Some([v]) if v.fract() == 0.0 && *v >= 1.0 => Expr::identity(*v as usize),
+                    Some([v]) if v.fract() == 0.0 && (1.0..=MAX_IDENTITY as f64).contains(v) => {
+                        Expr::identity(*v as usize)
+                    }
                     _ => {
-                        return Err(self.error_at("identity() takes a positive integer", args[0].1));
+                        return Err(self.error_at(
+                            format!("identity() takes an integer from 1 to {MAX_IDENTITY}"),
+                            args[0].1,
+                        ));
                     }
                 }
             }

@@ -86,7 +86,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
-    let compiled = plan.compile().map_err(CliError::bad_input)?;
+    let compiled = plan.compile().map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     Ok(Loaded { plan: Some(plan), compiled, keypoints })
 }
