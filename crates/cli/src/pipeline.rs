@@ -451,6 +451,21 @@ pub fn settings(
         p.lam_vb = v;
         p.lam_vc_max = p.lam_vc_max.max(v);
     }
+    if let Some(i) = &s.integrator {
+        p.discretization.integrator = match i.get_ref().as_str() {
+            "rk4" => armature_scvx::Integrator::Rk4,
+            "dormand_prince" => armature_scvx::Integrator::DormandPrince {
+                rtol: s.rtol.unwrap_or(1e-8),
+                atol: s.atol.unwrap_or(1e-10),
+            },
+            other => {
+                return Err(src.error(
+                    i,
+                    format!("integrator '{other}': give \"rk4\" or \"dormand_prince\""),
+                ));
+            }
+        };
+    }
     if let Some(t) = &s.trust_region {
         p.trust_region = match t.get_ref().as_str() {
             "adaptive" => PtrSettings::default().trust_region,

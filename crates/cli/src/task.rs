@@ -356,6 +356,17 @@ pub struct SettingsSpec {
     /// Initial virtual-buffer weight λ_vb.
     #[serde(default)]
     pub lam_vb: Option<f64>,
+    /// Integrator: `"rk4"` (fixed steps, default) or `"dormand_prince"` (adaptive, with
+    /// `rtol` and `atol`).
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub integrator: Option<Spanned<String>>,
+    /// Relative tolerance of the adaptive integrator. Default 1e-8.
+    #[serde(default)]
+    pub rtol: Option<f64>,
+    /// Absolute tolerance of the adaptive integrator. Default 1e-10.
+    #[serde(default)]
+    pub atol: Option<f64>,
 }
 
 /// An error located in a file.

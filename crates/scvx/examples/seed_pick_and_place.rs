@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -14,7 +14,13 @@ fn main() {
     let collision = std::env::args().any(|a| a == "collision");
     let s = if collision { seed::build_collision() } else { seed::build() };
     let t0 = std::time::Instant::now();
-    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    // `-- dp`: adaptive Dormand–Prince instead of fixed-step RK4.
+    let mut settings = PtrSettings::default();
+    if std::env::args().any(|a| a == "dp") {
+        settings.discretization.integrator =
+            armature_scvx::Integrator::DormandPrince { rtol: 1e-8, atol: 1e-10 };
+    }
+    let mut ptr = Ptr::new(s.ocp.clone(), settings);
     let built = t0.elapsed();
     println!("subproblem: {:?}", ptr.dimensions());
     let mut out = std::io::stdout().lock();

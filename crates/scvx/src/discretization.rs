@@ -28,18 +28,67 @@ use armature_symbolic::{Expr, Function, SparsityPattern, SymbolicError, Workspac
 /// Integrator settings.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct DiscretizationSettings {
-    /// RK4 steps per segment. Default 10.
+    /// RK4 steps per segment; for Dormand–Prince, the first trial step is `Δτ / substeps`.
+    /// Default 10.
     pub substeps: usize,
     /// Integrate segments concurrently on the rayon pool, one lane of segments per worker
     /// thread (segments are independent). Default true.
     pub parallel: bool,
+    /// The integration scheme. Default fixed-step RK4.
+    pub integrator: Integrator,
 }
 
 impl Default for DiscretizationSettings {
     fn default() -> Self {
-        DiscretizationSettings { substeps: 10, parallel: true }
+        DiscretizationSettings { substeps: 10, parallel: true, integrator: Integrator::Rk4 }
     }
 }
+
+/// How each segment is integrated (the state and its variational equations together).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub enum Integrator {
+    /// Classical RK4 with `substeps` equal steps: `A`, `B±` are the exact derivatives of the
+    /// numerical propagation map.
+    Rk4,
+    /// Dormand–Prince 5(4) with embedded error control on the state (`‖e_i / (atol + rtol
+    /// |x_i|)‖_rms ≤ 1`), first-same-as-last, step factor in [0.2, 5]. The matrices are the
+    /// derivatives of the map for the accepted step sequence (the step-size choice is not
+    /// differentiated, the usual practice). Because that sequence changes between a
+    /// reference and its candidates, the SCvx model is less faithful than with RK4: on the
+    /// seed arm PTR stalls with it. Use it to check a trajectory's accuracy, or with SCvx on
+    /// smooth problems.
+    DormandPrince {
+        /// Relative tolerance (> 0).
+        rtol: f64,
+        /// Absolute tolerance (> 0).
+        atol: f64,
+    },
+}
+
+/// Steps one Dormand–Prince segment may take before the discretization gives up.
+pub const MAX_ADAPTIVE_STEPS: usize = 100_000;
+
+/// Dormand–Prince 5(4) tableau: nodes `c`, rows of `a`, 5th-order weights `b`, and
+/// `b − b*` (the embedded 4th-order difference) for the error estimate.
+const DP_C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+const DP_A: [[f64; 6]; 7] = [
+    [0.0; 6],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
+    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
+    [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+];
+const DP_E: [f64; 7] = [
+    35.0 / 384.0 - 5179.0 / 57600.0,
+    0.0,
+    500.0 / 1113.0 - 7571.0 / 16695.0,
+    125.0 / 192.0 - 393.0 / 640.0,
+    -2187.0 / 6784.0 + 92097.0 / 339200.0,
+    11.0 / 84.0 - 187.0 / 2100.0,
+    -1.0 / 40.0,
+];
 
 /// Compiled dynamics `f(x, u)` with its sparse Jacobian, ready to discretize.
 #[derive(Debug, Clone)]
@@ -107,7 +156,8 @@ struct Lane {
     fval: Vec<f64>,
     jac: Vec<f64>,
     v: Vec<f64>,
-    k: [Vec<f64>; 4],
+    /// Stage derivatives (RK4 uses the first four, Dormand–Prince all seven).
+    k: [Vec<f64>; 7],
     tmp: Vec<f64>,
 }
 
@@ -337,6 +387,88 @@ impl Dynamics {
         }
     }
 
+    /// One segment by Dormand–Prince into `v` (which holds the initial value on entry).
+    #[allow(clippy::too_many_arguments)]
+    fn dormand_prince(
+        &self,
+        (rtol, atol): (f64, f64),
+        first_step: f64,
+        dtau: f64,
+        (uk, uk1, sk, seg): (&[f64], &[f64], f64, usize),
+        ws: &mut Lane,
+    ) -> Result<(), DiscretizationError> {
+        let n = self.n_x;
+        let len = ws.v.len();
+        let Lane { fws, input, fval, jac, v, k, tmp } = ws;
+        let mut t = 0.0;
+        let mut h = first_step.min(dtau);
+        // k[0] = f(t, v) (first same as last: refreshed from k[6] after each accepted step).
+        self.rhs(v, 0.0, uk, uk1, sk, seg, fws, input, fval, jac, &mut k[0])?;
+        let mut steps = 0;
+        while t < dtau * (1.0 - 1e-14) {
+            steps += 1;
+            if steps > MAX_ADAPTIVE_STEPS {
+                return Err(DiscretizationError::Size(format!(
+                    "Dormand–Prince: segment {seg} needs more than {MAX_ADAPTIVE_STEPS} steps (tolerances too tight, or stiff dynamics)"
+                )));
+            }
+            h = h.min(dtau - t);
+            for stage in 1..7 {
+                for i in 0..len {
+                    let mut acc = v[i];
+                    for (j, a) in DP_A[stage][..stage].iter().enumerate() {
+                        if *a != 0.0 {
+                            acc += h * a * k[j][i];
+                        }
+                    }
+                    tmp[i] = acc;
+                }
+                let beta = (t + DP_C[stage] * h) / dtau;
+                self.rhs(
+                    tmp,
+                    beta.min(1.0),
+                    uk,
+                    uk1,
+                    sk,
+                    seg,
+                    fws,
+                    input,
+                    fval,
+                    jac,
+                    &mut k[stage],
+                )?;
+            }
+            // tmp holds the 5th-order solution (stage 7's argument); error on the state part.
+            let mut err = 0.0;
+            for i in 0..n {
+                let e: f64 = h * (0..7).map(|j| DP_E[j] * k[j][i]).sum::<f64>();
+                let scale = atol + rtol * v[i].abs().max(tmp[i].abs());
+                err += (e / scale) * (e / scale);
+            }
+            if tmp[..n].iter().any(|x| !x.is_finite()) {
+                return Err(DiscretizationError::Size(format!(
+                    "Dormand–Prince: non-finite state on segment {seg}"
+                )));
+            }
+            // An overflowing ratio (tolerances far below the state's scale) just rejects.
+            let err = (err / n.max(1) as f64).sqrt().min(f64::MAX);
+            if h < 1e-12 * dtau {
+                return Err(DiscretizationError::Size(format!(
+                    "Dormand–Prince: the step on segment {seg} fell below 1e-12·Δτ: the tolerances cannot be met"
+                )));
+            }
+            let factor = if err == 0.0 { 5.0 } else { (0.9 * err.powf(-0.2)).clamp(0.2, 5.0) };
+            if err <= 1.0 {
+                t += h;
+                v.copy_from_slice(tmp);
+                let (first, last) = k.split_at_mut(6);
+                first[0].copy_from_slice(&last[0]);
+            }
+            h *= factor;
+        }
+        Ok(())
+    }
+
     /// An empty result for `nodes` nodes.
     pub fn output(&self, nodes: usize) -> Discretization {
         let (n, m, k) = (self.n_x, self.n_u + 1, nodes.saturating_sub(1));
@@ -563,7 +695,8 @@ impl Dynamics {
             x_prop: &mut out.x_prop,
             defect: &mut out.defect,
         };
-        self.discretize_lanes(x, u, s, settings.substeps, &mut ws.lanes[..lanes], segments, all)
+        let plan = (settings.substeps, settings.integrator);
+        self.discretize_lanes(x, u, s, plan, &mut ws.lanes[..lanes], segments, all)
     }
 
     /// Integrates `segments` segments into `out`, split evenly over `lanes`: the first lane
@@ -576,7 +709,7 @@ impl Dynamics {
         x: &[f64],
         u: &[f64],
         s: &[f64],
-        substeps: usize,
+        plan: (usize, Integrator),
         lanes: &mut [Lane],
         segments: usize,
         out: LaneOut<'_>,
@@ -584,7 +717,7 @@ impl Dynamics {
         let count = lanes.len();
         let (first, rest) = lanes.split_first_mut().expect("at least one lane");
         if rest.is_empty() {
-            return self.discretize_segments(x, u, s, substeps, first, segments, out);
+            return self.discretize_segments(x, u, s, plan, first, segments, out);
         }
         let (n, m) = (self.n_x, self.n_u + 1);
         let share = |i: usize| segments * (i + 1) / count - segments * i / count;
@@ -596,13 +729,13 @@ impl Dynamics {
                 others = tail;
                 let failed = &failed;
                 scope.spawn(move |_| {
-                    let r = self.discretize_segments(x, u, s, substeps, lane, share(i + 1), part);
+                    let r = self.discretize_segments(x, u, s, plan, lane, share(i + 1), part);
                     if let Err(e) = r {
                         *failed.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
                     }
                 });
             }
-            if let Err(e) = self.discretize_segments(x, u, s, substeps, first, share(0), mine) {
+            if let Err(e) = self.discretize_segments(x, u, s, plan, first, share(0), mine) {
                 *failed.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
             }
         });
@@ -619,7 +752,7 @@ impl Dynamics {
         x: &[f64],
         u: &[f64],
         s: &[f64],
-        substeps: usize,
+        (substeps, integrator): (usize, Integrator),
         ws: &mut Lane,
         count: usize,
         out: LaneOut<'_>,
@@ -630,38 +763,43 @@ impl Dynamics {
         let dtau = 1.0 / (nodes - 1) as f64;
         let h = dtau / substeps as f64;
         let len = ws.v.len();
-        let Lane { fws, input, fval, jac, v, k, tmp } = ws;
-        let [k0, k1, k2, k3] = k;
         for local in 0..count {
             let seg = out.first + local;
             let (uk, uk1) = (&u[seg * mu..(seg + 1) * mu], &u[(seg + 1) * mu..(seg + 2) * mu]);
             let sk = s[seg];
-            v.fill(0.0);
-            v[..n].copy_from_slice(&x[seg * n..(seg + 1) * n]);
+            ws.v.fill(0.0);
+            ws.v[..n].copy_from_slice(&x[seg * n..(seg + 1) * n]);
             for i in 0..n {
-                v[n + i * n + i] = 1.0;
+                ws.v[n + i * n + i] = 1.0;
             }
-            for step in 0..substeps {
-                let b0 = step as f64 / substeps as f64;
-                let bh = (step as f64 + 0.5) / substeps as f64;
-                let b1 = (step as f64 + 1.0) / substeps as f64;
-                self.rhs(v, b0, uk, uk1, sk, seg, fws, input, fval, jac, k0)?;
-                for i in 0..len {
-                    tmp[i] = v[i] + 0.5 * h * k0[i];
-                }
-                self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k1)?;
-                for i in 0..len {
-                    tmp[i] = v[i] + 0.5 * h * k1[i];
-                }
-                self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k2)?;
-                for i in 0..len {
-                    tmp[i] = v[i] + h * k2[i];
-                }
-                self.rhs(tmp, b1, uk, uk1, sk, seg, fws, input, fval, jac, k3)?;
-                for i in 0..len {
-                    v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
+            if let Integrator::DormandPrince { rtol, atol } = integrator {
+                self.dormand_prince((rtol, atol), h, dtau, (uk, uk1, sk, seg), ws)?;
+            } else {
+                let Lane { fws, input, fval, jac, v, k, tmp } = &mut *ws;
+                let [k0, k1, k2, k3, ..] = k;
+                for step in 0..substeps {
+                    let b0 = step as f64 / substeps as f64;
+                    let bh = (step as f64 + 0.5) / substeps as f64;
+                    let b1 = (step as f64 + 1.0) / substeps as f64;
+                    self.rhs(v, b0, uk, uk1, sk, seg, fws, input, fval, jac, k0)?;
+                    for i in 0..len {
+                        tmp[i] = v[i] + 0.5 * h * k0[i];
+                    }
+                    self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k1)?;
+                    for i in 0..len {
+                        tmp[i] = v[i] + 0.5 * h * k1[i];
+                    }
+                    self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k2)?;
+                    for i in 0..len {
+                        tmp[i] = v[i] + h * k2[i];
+                    }
+                    self.rhs(tmp, b1, uk, uk1, sk, seg, fws, input, fval, jac, k3)?;
+                    for i in 0..len {
+                        v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
+                    }
                 }
             }
+            let v = &ws.v;
             let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * m);
             out.x_prop[local * n..(local + 1) * n].copy_from_slice(&v[..n]);
             out.a[local * n * n..(local + 1) * n * n].copy_from_slice(&v[phi0..phi0 + n * n]);

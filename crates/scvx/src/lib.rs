@@ -9,7 +9,7 @@ pub mod ptr;
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
     DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
-    DiscretizationWorkspace, Dynamics,
+    DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS,
 };
 pub use problem::{
     Ball, Boundary, CompiledProblem, Control, CtcsOptions, MAX_NODES, Problem, ProblemConstraint,

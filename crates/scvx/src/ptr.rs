@@ -247,6 +247,11 @@ impl PtrSettings {
         if self.discretization.substeps == 0 {
             return bad("discretization.substeps", "must be at least 1");
         }
+        if let crate::Integrator::DormandPrince { rtol, atol } = self.discretization.integrator
+            && !(rtol.is_finite() && rtol > 0.0 && atol.is_finite() && atol > 0.0)
+        {
+            return bad("discretization.integrator", "Dormand–Prince tolerances must be positive");
+        }
         if let TrustRegionUpdate::Adaptive { eta } = self.trust_region
             && !(eta.iter().all(|e| e.is_finite()) && eta[0] <= eta[1] && eta[1] <= eta[2])
         {

@@ -241,3 +241,62 @@ fn parallel_and_serial_discretization_agree_bitwise() {
         assert_eq!(outs[0], outs[1], "{nodes} nodes");
     }
 }
+
+fn dp(rtol: f64, atol: f64) -> DiscretizationSettings {
+    DiscretizationSettings {
+        integrator: armature_scvx::Integrator::DormandPrince { rtol, atol },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn dormand_prince_agrees_with_fine_rk4_and_its_matrices_are_derivatives() {
+    let d = nonlinear();
+    let (n, mu) = (3, 2);
+    let nodes = 4;
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
+    let s = vec![1.5, 1.2, 2.0, 2.0];
+    let run = |settings: &DiscretizationSettings, x: &[f64]| {
+        let mut ws = d.workspace();
+        let mut out = d.output(nodes);
+        d.discretize(x, &u, &s, settings, &mut ws, &mut out).unwrap();
+        out
+    };
+    let fine = run(&DiscretizationSettings { substeps: 400, ..Default::default() }, &x);
+    let adaptive = run(&dp(1e-11, 1e-13), &x);
+    let close = |a: &[f64], b: &[f64], tol: f64| a.iter().zip(b).all(|(p, q)| (p - q).abs() < tol);
+    assert!(close(&adaptive.x_prop, &fine.x_prop, 1e-9), "{:?} {:?}", adaptive.x_prop, fine.x_prop);
+    assert!(close(&adaptive.a, &fine.a, 1e-8));
+    assert!(close(&adaptive.b_minus, &fine.b_minus, 1e-8));
+    assert!(close(&adaptive.b_plus, &fine.b_plus, 1e-8));
+    // Central differences of the adaptive map in the state of segment 1.
+    let h = 1e-6;
+    for j in 0..n {
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[n + j] += h;
+        xm[n + j] -= h;
+        let (p, m) = (run(&dp(1e-11, 1e-13), &xp), run(&dp(1e-11, 1e-13), &xm));
+        for r in 0..n {
+            let fd = (p.x_prop[n + r] - m.x_prop[n + r]) / (2.0 * h);
+            let a = adaptive.a[n * n + r * n + j];
+            assert!((fd - a).abs() < 1e-6 * (1.0 + a.abs()), "A[{r},{j}] {a} vs {fd}");
+        }
+    }
+    // Loose tolerances take fewer, larger steps and stay close.
+    let loose = run(&dp(1e-6, 1e-8), &x);
+    assert!(close(&loose.x_prop, &fine.x_prop, 1e-4));
+}
+
+#[test]
+fn dormand_prince_that_cannot_meet_its_tolerance_is_an_error() {
+    let d = nonlinear();
+    let nodes = 3;
+    let x = vec![0.3; nodes * 3];
+    let u = vec![0.5; nodes * 2];
+    let s = vec![1.0; nodes];
+    let mut ws = d.workspace();
+    let mut out = d.output(nodes);
+    let err = d.discretize(&x, &u, &s, &dp(1e-300, 1e-300), &mut ws, &mut out).unwrap_err();
+    assert!(err.to_string().contains("cannot be met"), "{err}");
+}
