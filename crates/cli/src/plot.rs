@@ -167,13 +167,7 @@ where
             let nodes = s.nodes[name].iter().zip(&s.nodes["time"]);
             chart.draw_series(nodes.map(|(r, t)| Circle::new((t[0], r[j]), 3, c.filled())))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        legend(&mut chart)?;
     }
     Ok(())
 }
@@ -266,13 +260,7 @@ where
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
         chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK.mix(0.3))
-        .label_font(("sans-serif", 12))
-        .draw()?;
+    legend(&mut chart)?;
     let costs = s.history.iter().map(|h| h.cost).filter(|v| v.is_finite());
     let mut chart = ChartBuilder::on(&bottom)
         .margin(8)
@@ -388,6 +376,54 @@ where
     Ok(())
 }
 
+type Chart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// An equal-scale chart of one view (axes `i`, `j`) around `pts`, with the scenery drawn.
+fn view<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: String,
+    pts: &[(f64, f64)],
+    plan: &Plan,
+    (i, j): (usize, usize),
+) -> Result<Chart<'a, DB>, Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let (w, h) = area.dim_in_pixel();
+    let (x, y) = square(pts, f64::from(w) - 80.0, f64::from(h) - 80.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(50)
+        .build_cartesian_2d(x.clone(), y)?;
+    let axis = ["x (m)", "y (m)", "z (m)"];
+    chart.configure_mesh().x_desc(axis[i]).y_desc(axis[j]).light_line_style(WHITE).draw()?;
+    scenery(&mut chart, plan, (i, j), &x)?;
+    Ok(chart)
+}
+
+/// The series legend in the upper right corner.
+fn legend<'a, DB, CT>(chart: &mut ChartContext<'a, DB, CT>) -> Result<(), Box<dyn Error>>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: plotters::coord::CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 12))
+        .draw()?;
+    Ok(())
+}
+
 /// The end-effector path (dense, nodes marked) in top and side views.
 fn path<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -398,21 +434,11 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (w, h) = root.dim_in_pixel();
     for (area, (title, i, j)) in root.split_evenly((1, 2)).iter().zip(VIEWS) {
         let ee = &s.trajectory["ee_position"];
         let mut pts: Vec<(f64, f64)> = ee.iter().map(|p| (p[i], p[j])).collect();
         pts.extend(plan.waypoints.iter().map(|w| (w.position[i], w.position[j])));
-        let (x, y) = square(&pts, f64::from(w) / 2.0 - 80.0, f64::from(h) - 80.0);
-        let mut chart = ChartBuilder::on(area)
-            .caption(format!("end-effector path, {title}"), ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(50)
-            .build_cartesian_2d(x.clone(), y)?;
-        let axis = ["x (m)", "y (m)", "z (m)"];
-        chart.configure_mesh().x_desc(axis[i]).y_desc(axis[j]).light_line_style(WHITE).draw()?;
-        scenery(&mut chart, plan, (i, j), &x)?;
+        let mut chart = view(area, format!("end-effector path, {title}"), &pts, plan, (i, j))?;
         chart.draw_series(LineSeries::new(
             ee.iter().map(|p| (p[i], p[j])),
             color(0).stroke_width(2),
@@ -433,7 +459,6 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (w, h) = root.dim_in_pixel();
     let chain = &plan.chain;
     let mut fk = chain.fk_workspace();
     let angles = &s.trajectory["angle"];
@@ -452,16 +477,8 @@ where
     let times = &s.trajectory["time"];
     for (area, (title, i, j)) in root.split_evenly((1, 2)).iter().zip(VIEWS) {
         let pts: Vec<(f64, f64)> = frames.iter().flatten().map(|p| (p[i], p[j])).collect();
-        let (x, y) = square(&pts, f64::from(w) / 2.0 - 80.0, f64::from(h) - 80.0);
-        let mut chart = ChartBuilder::on(area)
-            .caption(format!("the arm at {count} instants, {title}"), ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(50)
-            .build_cartesian_2d(x.clone(), y)?;
-        let axis = ["x (m)", "y (m)", "z (m)"];
-        chart.configure_mesh().x_desc(axis[i]).y_desc(axis[j]).light_line_style(WHITE).draw()?;
-        scenery(&mut chart, plan, (i, j), &x)?;
+        let caption = format!("the arm at {count} instants, {title}");
+        let mut chart = view(area, caption, &pts, plan, (i, j))?;
         for (n, (kp, &k)) in frames.iter().zip(&picks).enumerate() {
             let c = color(n);
             for &(a, b, r) in &links {
@@ -476,13 +493,7 @@ where
                 .label(format!("t = {:.2} s", times[k][0]))
                 .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        legend(&mut chart)?;
     }
     Ok(())
 }
