@@ -360,7 +360,7 @@ pub struct Iteration {
     /// Interior-point iterations of the subproblem.
     pub subproblem_iterations: u32,
     /// Clarabel's status of the subproblem (`Solved`, `AlmostSolved`, …).
-    pub subproblem_status: String,
+    pub subproblem_status: &'static str,
     /// Set on the final iteration: how the solve ended.
     pub status: Option<PtrStatus>,
 }
@@ -1114,7 +1114,7 @@ impl Ptr {
             discretization_ms: 0.0,
             subproblem_ms: 0.0,
             subproblem_iterations: 0,
-            subproblem_status: "setup failed".into(),
+            subproblem_status: "SetupFailed",
             status: None,
         };
         let Some(sv) = st.solver.as_mut() else {
@@ -1123,7 +1123,7 @@ impl Ptr {
         sv.solve();
         record.subproblem_ms = t_sub.elapsed().as_secs_f64() * 1e3;
         record.subproblem_iterations = sv.solution.iterations;
-        record.subproblem_status = format!("{:?}", sv.solution.status);
+        record.subproblem_status = status_name(sv.solution.status);
         st.timings.subproblem_ms += record.subproblem_ms;
         match sv.solution.status {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {}
@@ -1261,6 +1261,23 @@ pub struct SubproblemDimensions {
     pub cone_rows: usize,
     /// Structural nonzeros of `A`.
     pub nonzeros: usize,
+}
+
+/// Clarabel's status as a static name (no allocation per iteration).
+fn status_name(s: SolverStatus) -> &'static str {
+    match s {
+        SolverStatus::Solved => "Solved",
+        SolverStatus::AlmostSolved => "AlmostSolved",
+        SolverStatus::PrimalInfeasible => "PrimalInfeasible",
+        SolverStatus::AlmostPrimalInfeasible => "AlmostPrimalInfeasible",
+        SolverStatus::DualInfeasible => "DualInfeasible",
+        SolverStatus::AlmostDualInfeasible => "AlmostDualInfeasible",
+        SolverStatus::MaxIterations => "MaxIterations",
+        SolverStatus::MaxTime => "MaxTime",
+        SolverStatus::NumericalError => "NumericalError",
+        SolverStatus::InsufficientProgress => "InsufficientProgress",
+        _ => "Other",
+    }
 }
 
 /// The reference trajectory of a running solve (borrowed from the solver).
