@@ -135,7 +135,7 @@ where
     ];
     let tf = s.final_time.max(1e-9);
     for (area, (name, label, lo, hi)) in panels.iter().zip(specs) {
-        let (t, rows) = series(s, name);
+        let rows = series(s, name).1;
         let finite_limits = lo.iter().chain(&hi).copied().filter(|v| v.is_finite());
         let y = range(rows.iter().flatten().copied().chain(finite_limits), 0.05);
         let mut chart = ChartBuilder::on(area)
@@ -147,11 +147,7 @@ where
         chart.configure_mesh().x_desc("time (s)").y_desc(label).light_line_style(WHITE).draw()?;
         for j in 0..plan.chain.dof() {
             let c = color(j);
-            chart
-                .draw_series(LineSeries::new(
-                    t.iter().zip(rows).map(|(t, r)| (t[0], r[j])),
-                    c.stroke_width(2),
-                ))?
+            component(&mut chart, s, name, j)?
                 .label(format!("joint {}", j + 1))
                 .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
             for bound in [lo[j], hi[j]] {
@@ -164,12 +160,32 @@ where
                     ))?;
                 }
             }
-            let nodes = s.nodes[name].iter().zip(&s.nodes["time"]);
-            chart.draw_series(nodes.map(|(r, t)| Circle::new((t[0], r[j]), 3, c.filled())))?;
         }
         legend(&mut chart)?;
     }
     Ok(())
+}
+
+/// Component `j` of series `name` against time in colour `j`: the nodes as dots, the dense
+/// trajectory as a line (whose annotation is returned, for a legend entry).
+fn component<'b, 'a, DB>(
+    chart: &'b mut Chart<'a, DB>,
+    s: &Solution,
+    name: &str,
+    j: usize,
+) -> Result<&'b mut plotters::chart::SeriesAnno<'a, DB>, Box<dyn Error>>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+{
+    let c = color(j);
+    let nodes = s.nodes[name].iter().zip(&s.nodes["time"]);
+    chart.draw_series(nodes.map(|(r, t)| Circle::new((t[0], r[j]), 3, c.filled())))?;
+    let (t, rows) = series(s, name);
+    Ok(chart.draw_series(LineSeries::new(
+        t.iter().zip(rows).map(|(t, r)| (t[0], r[j])),
+        c.stroke_width(2),
+    ))?)
 }
 
 /// Every state and control of a problem file against time, one panel each.
@@ -186,7 +202,7 @@ where
     let panels = root.split_evenly((names.len().max(1), 1));
     let tf = s.final_time.max(1e-9);
     for (area, name) in panels.iter().zip(names) {
-        let (t, rows) = series(s, name);
+        let rows = series(s, name).1;
         let y = range(rows.iter().flatten().copied(), 0.05);
         let mut chart = ChartBuilder::on(area)
             .caption(name.as_str(), ("sans-serif", 16))
@@ -197,13 +213,7 @@ where
         chart.configure_mesh().x_desc("time (s)").light_line_style(WHITE).draw()?;
         let width = rows.first().map_or(0, Vec::len);
         for j in 0..width {
-            chart.draw_series(LineSeries::new(
-                t.iter().zip(rows).map(|(t, r)| (t[0], r[j])),
-                color(j).stroke_width(2),
-            ))?;
-            let nodes = s.nodes[name.as_str()].iter().zip(&s.nodes["time"]);
-            chart
-                .draw_series(nodes.map(|(r, t)| Circle::new((t[0], r[j]), 3, color(j).filled())))?;
+            component(&mut chart, s, name, j)?;
         }
     }
     Ok(())
