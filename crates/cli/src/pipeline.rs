@@ -478,6 +478,27 @@ pub fn settings(
             }
         };
     }
+    if let Some(q) = s.quasi_newton {
+        p.quasi_newton = q;
+    }
+    let sigma = s.merit_sigma.as_ref().map_or(0.5, |v| *v.get_ref());
+    if let Some(v) = &s.merit_sigma
+        && !(0.0..=1.0).contains(&sigma)
+    {
+        return Err(src.error(v, format!("merit_sigma {sigma} must lie in [0, 1]")));
+    }
+    if let Some(m) = &s.merit {
+        p.merit = match m.get_ref().as_str() {
+            "exact_penalty" => armature_scvx::Merit::ExactPenalty,
+            "lagrangian" => armature_scvx::Merit::Lagrangian { sigma },
+            other => {
+                return Err(src.error(
+                    m,
+                    format!("merit '{other}': give \"exact_penalty\" or \"lagrangian\""),
+                ));
+            }
+        };
+    }
     if let Some(dt) = &s.dense_dt {
         p.dense_dt = *dt.get_ref();
         if !(p.dense_dt.is_finite() && p.dense_dt > 0.0) {

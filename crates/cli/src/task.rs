@@ -367,6 +367,19 @@ pub struct SettingsSpec {
     /// Absolute tolerance of the adaptive integrator. Default 1e-10.
     #[serde(default)]
     pub atol: Option<f64>,
+    /// Add a partitioned quasi-Newton (BFGS) model of the Lagrangian's Hessian to each
+    /// subproblem. Default false.
+    #[serde(default)]
+    pub quasi_newton: Option<bool>,
+    /// Merit of the step acceptance: `"exact_penalty"` (default) or `"lagrangian"` (defects
+    /// priced by the dynamics duals, with `merit_sigma` of the ℓ1 price kept).
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub merit: Option<Spanned<String>>,
+    /// Fraction σ ∈ [0, 1] of the ℓ1 price kept by the Lagrangian merit. Default 0.5.
+    #[serde(default)]
+    #[schemars(with = "Option<f64>")]
+    pub merit_sigma: Option<Spanned<f64>>,
 }
 
 /// An error located in a file.

@@ -184,11 +184,19 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "table_height = 0.0   # m; the end effector stays above it\n[collision]\nlinks = [{ start = \"base\", end = \"elbow\", radius = -0.05 }]",
         "radius",
     );
+    bad("merit", "merit = \"lagrangian\"", "merit = \"newton\"", "merit 'newton'");
+    bad(
+        "merit-sigma",
+        "quasi_newton = true",
+        "merit_sigma = 2.0\nquasi_newton = true",
+        "must lie in [0, 1]",
+    );
 }
 
 #[test]
 fn a_solve_stopped_by_its_cap_exits_3_and_writes_its_result() {
-    let text = format!("{TASK}\n[settings]\nmax_iterations = 2\n");
+    let text = TASK.replacen("[settings]\n", "[settings]\nmax_iterations = 2\n", 1);
+    assert_ne!(text, TASK);
     let path = temp_file("capped", "task.toml", &text);
     let out = path.with_file_name("result.json");
     let (code, _, stderr) =

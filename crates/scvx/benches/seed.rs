@@ -1,10 +1,11 @@
-//! The seed pick-and-place: one full solve (after problem construction), the same for the
-//! collision variant, and one discretization of the guess.
+//! The seed pick-and-place: one full solve (after problem construction), the same with the
+//! quasi-Newton model and the Lagrangian merit, the same for the collision variant, and one
+//! discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
 
-use armature_scvx::{Ptr, PtrSettings};
+use armature_scvx::{Merit, Ptr, PtrSettings};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -15,6 +16,15 @@ fn bench(c: &mut Criterion) {
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
+    });
+    let qn = PtrSettings {
+        quasi_newton: true,
+        merit: Merit::Lagrangian { sigma: 0.5 },
+        ..PtrSettings::default()
+    };
+    let mut ptr_qn = Ptr::new(s.ocp.clone(), qn);
+    g.bench_function("solve_quasi_newton", |b| {
+        b.iter(|| black_box(ptr_qn.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
     let sc = seed::build_collision();
     let mut ptr_c = Ptr::new(sc.ocp.clone(), PtrSettings::default());

@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -19,6 +19,11 @@ fn main() {
     if std::env::args().any(|a| a == "dp") {
         settings.discretization.integrator =
             armature_scvx::Integrator::DormandPrince { rtol: 1e-8, atol: 1e-10 };
+    }
+    // `-- qn`: the quasi-Newton model with the Lagrangian merit.
+    if std::env::args().any(|a| a == "qn") {
+        settings.quasi_newton = true;
+        settings.merit = armature_scvx::Merit::Lagrangian { sigma: 0.5 };
     }
     let mut ptr = Ptr::new(s.ocp.clone(), settings);
     let built = t0.elapsed();

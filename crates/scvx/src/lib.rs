@@ -16,7 +16,7 @@ pub use problem::{
     ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
 };
 pub use ptr::{
-    Iteration, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
+    Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
     PtrSettings, PtrStatus, SettingsError, SubproblemDimensions, SubproblemSettings, Timings,
     Trajectory, TrustRegionUpdate, Violation,
 };

@@ -34,6 +34,16 @@
 //! control (or a buffer) gets a doubled price — the ℓ1 penalty is exact only above the
 //! multiplier. Converged when an accepted step has `‖Δz‖²_S < ε_tr`, the largest nonlinear
 //! defect is below `ε_defect` and the largest nodal violation below `ε_vb`.
+//!
+//! A short step is not a stationary point: with a heavy λ_tr the step is short while the
+//! Lagrangian's gradient (≈ 2λ_tr·S⁻²Δz at the subproblem's optimum) is not small. On the
+//! seed arm the first-order loop stops at T = 1.553 s; run on with ε_tr = 1e-12 it is still
+//! creeping down (1.426 s after 400 iterations). [`PtrSettings::quasi_newton`] adds a damped
+//! BFGS model of the Lagrangian's Hessian per segment (`P` gains one dense block per segment
+//! over the columns where the segment's rows are nonlinear; the pairs are
+//! `s = z − z̄`, `y = (A(z) − A(z̄))ᵀλ` with the subproblem's duals λ), and
+//! [`Merit::Lagrangian`] prices a defect by its dual instead of its full ℓ1 weight; together
+//! they reach T = 1.266 s on the same problem.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -154,6 +164,33 @@ pub struct PtrSettings {
     /// ρ against the scaled prediction passes η₀ and the merit decreases, and λ_tr then
     /// doubles. On the seed arm this cuts the iterations by 20–35 %. Default true.
     pub backtracking: bool,
+    /// Add a partitioned quasi-Newton (damped BFGS) model of the Lagrangian's Hessian to the
+    /// subproblem's objective: one dense block per segment over the columns through which
+    /// its dynamics and nodal constraints are nonlinear, updated from the change of the
+    /// constraint Jacobians weighted by the subproblem's duals. With
+    /// [`Merit::Lagrangian`] it reaches markedly lower final times on the seed arm (a
+    /// first-order PTR stops where its trust region keeps the steps short, not at a
+    /// stationary point), at about 1.5× the cost per subproblem and more iterations.
+    /// Default false.
+    pub quasi_newton: bool,
+    /// The merit function that accepts or rejects steps. Default [`Merit::ExactPenalty`].
+    pub merit: Merit,
+}
+
+/// Merit function of the step acceptance (with [`TrustRegionUpdate::Adaptive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Merit {
+    /// `J = cost + Σ λ_vc,i·|defect_i| + Σ λ_vb·max(0, violation)`: the ℓ1 exact penalty.
+    /// Second-order defects of a good step count at full price (the Maratos effect), which
+    /// keeps steps short.
+    ExactPenalty,
+    /// `J − Σ (1 − σ)·λ_vc,i·|defect_i| − Σ y_i·defect_i` with the dynamics duals `y` of the
+    /// current subproblem: the first-order cost of repairing each defect at the next
+    /// iteration replaces most of its ℓ1 price (σ keeps a fraction).
+    Lagrangian {
+        /// Fraction σ ∈ [0, 1] of the ℓ1 price kept.
+        sigma: f64,
+    },
 }
 
 /// Settings of the interior-point solver of each convex subproblem (Clarabel); the rest of
@@ -262,6 +299,11 @@ impl PtrSettings {
         {
             return bad("trust_region.eta", "must be finite and non-decreasing");
         }
+        if let Merit::Lagrangian { sigma } = self.merit
+            && !(0.0..=1.0).contains(&sigma)
+        {
+            return bad("merit.sigma", "must lie in [0, 1]");
+        }
         Ok(())
     }
 }
@@ -284,6 +326,8 @@ impl Default for PtrSettings {
             subproblem: SubproblemSettings::default(),
             dense_dt: 0.01,
             backtracking: true,
+            quasi_newton: false,
+            merit: Merit::ExactPenalty,
         }
     }
 }
@@ -408,6 +452,21 @@ enum Source {
     NegG(usize),
 }
 
+/// Scale of the initial quasi-Newton block, `γ·S⁻²` with `γ` this times Nocedal and
+/// Wright's `‖y‖²/yᵀs` (in the trust-region scaling): their estimate sits near the largest
+/// curvature, and a tenth of it let the seed arm take longer first steps.
+const QN_INITIAL_SCALE: f64 = 0.1;
+
+/// One element of the partitioned quasi-Newton Hessian: the columns through which the rows
+/// of one segment (its dynamics and the nodal constraints at its first node) are nonlinear.
+#[derive(Debug, Clone)]
+struct Element {
+    /// Subproblem columns (primal variables).
+    cols: Vec<usize>,
+    /// For `a ≤ b`, the index in `P`'s values of entry `(cols[a], cols[b])`, row-major `d×d`.
+    pidx: Vec<usize>,
+}
+
 /// Scratch for evaluating the nodal constraints (allocated once per solve).
 #[derive(Debug)]
 struct NodalEval {
@@ -453,6 +512,16 @@ pub struct Ptr {
     buffers: Vec<(usize, usize, Option<usize>)>,
     /// Sizes of the second-order cones (after the nonnegative rows).
     socs: Vec<usize>,
+    /// Upper-triangular pattern of the subproblem's `P` (diagonal plus the quasi-Newton
+    /// element blocks).
+    p_colptr: Vec<usize>,
+    p_rowval: Vec<usize>,
+    /// Index in `P`'s values of each primal column's diagonal.
+    p_diag: Vec<usize>,
+    /// Quasi-Newton elements of the Lagrangian's Hessian.
+    elements: Vec<Element>,
+    /// Element of each subproblem row (`usize::MAX`: a row with constant coefficients).
+    row_elem: Vec<usize>,
     /// The running (or last) solve.
     state: Option<Box<Iterate>>,
 }
@@ -654,8 +723,90 @@ impl Ptr {
         for c in 0..n_vars {
             a_colptr[c + 1] += a_colptr[c];
         }
-        let a_rowval = trip.iter().map(|t| t.0).collect();
-        let sources = trip.iter().map(|t| t.2).collect();
+        let a_rowval: Vec<usize> = trip.iter().map(|t| t.0).collect();
+        let sources: Vec<Source> = trip.iter().map(|t| t.2).collect();
+        // Quasi-Newton elements: segment k owns its dynamics rows and the nodal rows at node
+        // k; its columns are those of x_k, u_k, s_k, u_{k+1} with a varying coefficient in
+        // one of its rows (a state that only feeds itself, like a CTCS integral, has none).
+        let mut row_elem = vec![usize::MAX; row];
+        for (k, re) in row_elem.iter_mut().take((nn - 1) * n).enumerate() {
+            *re = k / n;
+        }
+        {
+            let mut e = 0;
+            for c in &ocp.nodal {
+                for &k in &c.nodes {
+                    for nr in nodal_rows.iter().filter(|nr| nr.eval == e) {
+                        row_elem[nr.row] = k;
+                    }
+                    e += 1;
+                }
+            }
+        }
+        let mut elements = Vec::with_capacity(nn);
+        for k in 0..nn {
+            let mut cand: Vec<usize> = (x0 + k * n..x0 + (k + 1) * n)
+                .chain(u0 + k * m..u0 + (k + 1) * m)
+                .chain(std::iter::once(s0 + k))
+                .collect();
+            if k + 1 < nn {
+                cand.extend(u0 + (k + 1) * m..u0 + (k + 2) * m);
+            }
+            let cols: Vec<usize> = cand
+                .into_iter()
+                .filter(|&c| {
+                    settings.quasi_newton
+                        && (a_colptr[c]..a_colptr[c + 1]).any(|p| {
+                            row_elem[a_rowval[p]] == k
+                                && match sources[p] {
+                                    Source::Const(_) => false,
+                                    // A column of A that is only its own diagonal is constant (1).
+                                    Source::A(i) => {
+                                        let (r, j) = ((i % (n * n)) / n, i % n);
+                                        r != j || (0..n).any(|rr| rr != j && tp.contains(rr, j))
+                                    }
+                                    _ => true,
+                                }
+                        })
+                })
+                .collect();
+            elements.push(Element { cols, pidx: Vec::new() });
+        }
+        // P's pattern: every primal diagonal plus each element's upper triangle.
+        let n_primal = vp0;
+        let mut pairs: Vec<(usize, usize)> = (0..n_primal).map(|c| (c, c)).collect();
+        for el in &elements {
+            for (a, &ca) in el.cols.iter().enumerate() {
+                for &cb in &el.cols[a..] {
+                    pairs.push((ca.min(cb), ca.max(cb)));
+                }
+            }
+        }
+        pairs.sort_by_key(|&(r, c)| (c, r));
+        pairs.dedup();
+        let mut p_colptr = vec![0; n_vars + 1];
+        for &(_, c) in &pairs {
+            p_colptr[c + 1] += 1;
+        }
+        for c in 0..n_vars {
+            p_colptr[c + 1] += p_colptr[c];
+        }
+        let p_rowval: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+        let find = |r: usize, c: usize| {
+            let lo = p_colptr[c];
+            lo + p_rowval[lo..p_colptr[c + 1]].binary_search(&r).expect("in the pattern")
+        };
+        let p_diag: Vec<usize> = (0..n_primal).map(|c| find(c, c)).collect();
+        for el in &mut elements {
+            let d = el.cols.len();
+            el.pidx = vec![usize::MAX; d * d];
+            for a in 0..d {
+                for b in a..d {
+                    let (ca, cb) = (el.cols[a], el.cols[b]);
+                    el.pidx[a * d + b] = find(ca.min(cb), ca.max(cb));
+                }
+            }
+        }
         let dws = ocp.dynamics.workspace();
         Ptr {
             ocp,
@@ -674,6 +825,11 @@ impl Ptr {
             g_len: (gv, gj),
             buffers,
             socs,
+            p_colptr,
+            p_rowval,
+            p_diag,
+            elements,
+            row_elem,
             state: None,
         }
     }
@@ -866,6 +1022,7 @@ impl Ptr {
         st.lam_vc.fill(self.settings.lam_vc);
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
+        st.hess_ready.fill(false);
         st.history.clear();
         st.status = None;
         (st.jbar, st.tf, _, _) =
@@ -991,6 +1148,7 @@ impl Ptr {
                 1.0 / (sc * sc)
             })
             .collect();
+        let dmax = self.elements.iter().map(|e| e.cols.len()).max().unwrap_or(0);
         let mut cones: Vec<SupportedConeT<f64>> =
             vec![ZeroConeT(self.n_zero), NonnegativeConeT(self.n_nonneg)];
         cones.extend(self.socs.iter().map(|&d| SecondOrderConeT(d)));
@@ -1013,12 +1171,20 @@ impl Ptr {
             jbar: 0.0,
             tf: 0.0,
             history: Vec::new(),
+            hess: self.elements.iter().map(|e| vec![0.0; e.cols.len() * e.cols.len()]).collect(),
+            hess_ready: vec![false; self.elements.len()],
+            duals: vec![0.0; self.b.len()],
+            nz_new: vec![0.0; self.a_rowval.len()],
+            qn_s: vec![0.0; dmax],
+            qn_g: vec![0.0; dmax],
+            qn_hs: vec![0.0; dmax],
+            qn_r: vec![0.0; dmax],
             status: None,
             timings: Timings::default(),
             q: vec![0.0; self.n_vars],
             zbar: vec![0.0; n_primal],
             zc: vec![0.0; n_primal],
-            pvals: vec![0.0; n_primal],
+            pvals: vec![0.0; self.p_rowval.len()],
             inv_s2,
             nz: vec![0.0; self.a_rowval.len()],
             b: self.b.clone(),
@@ -1077,8 +1243,23 @@ impl Ptr {
         for (i, qi) in st.q.iter_mut().enumerate().skip(vp0) {
             *qi = if i < self.vb0 { st.lam_vc[(i - vp0) % n] } else { st.lam_vb[i - self.vb0] };
         }
-        for (p, w) in st.pvals.iter_mut().zip(&st.inv_s2) {
-            *p = 2.0 * st.lam_tr * w;
+        st.pvals.fill(0.0);
+        for (c, w) in st.inv_s2.iter().enumerate() {
+            st.pvals[self.p_diag[c]] = 2.0 * st.lam_tr * w;
+        }
+        let qn = set.quasi_newton;
+        if qn {
+            for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
+                if !*ready {
+                    continue;
+                }
+                let d = el.cols.len();
+                for a in 0..d {
+                    for b in a..d {
+                        st.pvals[el.pidx[a * d + b]] += h[a * d + b];
+                    }
+                }
+            }
         }
         let t_sub = Instant::now();
         // In-place update when the solver exists (same pattern); rebuild if that fails.
@@ -1092,8 +1273,13 @@ impl Ptr {
             }
         }
         if st.solver.is_none() {
-            let p_colptr: Vec<usize> = (0..=nv).map(|c| c.min(n_primal)).collect();
-            let pm = CscMatrix::new(nv, nv, p_colptr, (0..n_primal).collect(), st.pvals.clone());
+            let pm = CscMatrix::new(
+                nv,
+                nv,
+                self.p_colptr.clone(),
+                self.p_rowval.clone(),
+                st.pvals.clone(),
+            );
             let am = CscMatrix::new(
                 st.b.len(),
                 nv,
@@ -1150,6 +1336,21 @@ impl Ptr {
         let vb_cost: f64 =
             z[self.vb0..nv].iter().zip(&st.lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
         let j_tr: f64 = (0..n_primal).map(|i| z[i] * z[i] * st.inv_s2[i]).sum();
+        // The quadratic model term ½ΔzᵀHΔz of the prediction.
+        let mut quad = 0.0;
+        if qn {
+            for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
+                if *ready {
+                    let d = el.cols.len();
+                    for a in 0..d {
+                        for b in 0..d {
+                            quad += 0.5 * z[el.cols[a]] * h[a * d + b] * z[el.cols[b]];
+                        }
+                    }
+                }
+            }
+        }
+        st.duals.copy_from_slice(&sv.solution.z);
         let t_disc = Instant::now();
         self.ocp.dynamics.discretize(
             xc,
@@ -1164,8 +1365,19 @@ impl Ptr {
         let (mut jc, mut tfc, mut max_defect, mut max_violation) =
             self.merit(xc, uc, sc, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
         let mut cost = self.cost(xc, tfc);
-        let predicted = st.jbar - (cost + vc_cost + vb_cost);
-        let mut rho = if predicted.abs() > 1e-14 { (st.jbar - jc) / predicted } else { 1.0 };
+        // The Lagrangian merit's shift of the ℓ1 merit (zero for the exact penalty).
+        let (lam_vc, duals) = (&st.lam_vc, &st.duals);
+        let adj = |d: &[f64]| -> f64 {
+            let Merit::Lagrangian { sigma } = set.merit else { return 0.0 };
+            d.iter()
+                .enumerate()
+                .map(|(i, di)| (sigma - 1.0) * lam_vc[i % n] * di.abs() - duals[i] * di)
+                .sum()
+        };
+        let phibar = st.jbar + adj(&st.dbar.defect);
+        let phi = jc + adj(&st.dcand.defect);
+        let predicted = phibar - (cost + vc_cost + vb_cost + quad);
+        let mut rho = if predicted.abs() > 1e-14 { (phibar - phi) / predicted } else { 1.0 };
         let mut accept = match set.trust_region {
             TrustRegionUpdate::Constant => true,
             TrustRegionUpdate::Adaptive { eta } => rho >= eta[0] || predicted.abs() <= 1e-14,
@@ -1195,8 +1407,9 @@ impl Ptr {
                 record.discretization_ms += ms;
                 st.timings.discretization_ms += ms;
                 let m = self.merit(xa, ua, sa, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
-                let r = (st.jbar - m.0) / (alpha * predicted);
-                if r >= eta[0].max(1e-4) && m.0 < st.jbar {
+                let phi = m.0 + adj(&st.dcand.defect);
+                let r = (phibar - phi) / (alpha * predicted);
+                if r >= eta[0].max(1e-4) && phi < phibar {
                     (jc, tfc, max_defect, max_violation) = m;
                     cost = self.cost(xa, tfc);
                     rho = r;
@@ -1242,14 +1455,18 @@ impl Ptr {
                 repriced = true;
             }
         }
+        if qn {
+            self.update_hessian(st);
+        }
         if accept {
             st.xb.copy_from_slice(&st.zc[..u0]);
             st.ub.copy_from_slice(&st.zc[u0..s0]);
             st.sb.copy_from_slice(&st.zc[s0..vp0]);
             std::mem::swap(&mut st.dbar, &mut st.dcand);
             (st.jbar, st.tf) = (jc, tfc);
-            // Stationarity, not just a short step: the subproblem's optimality gives
-            // ‖∇L‖ ≈ 2λ_tr‖Δz‖, so a step kept short by a heavy trust region does not count.
+            // A short accepted step: the published PTR's criterion. It does not certify
+            // stationarity — the subproblem's optimality gives ‖∇L‖ ≈ 2λ_tr‖Δz‖_S, which a
+            // heavy λ_tr keeps large while the step is short (see `quasi_newton`).
             let stationary = j_tr < set.eps_tr;
             if stationary && max_defect < set.eps_defect && max_violation < set.eps_vb {
                 return Ok(self.finish(st, record, PtrStatus::Converged));
@@ -1278,6 +1495,78 @@ impl Ptr {
         }
         st.history.push(record.clone());
         Ok(record)
+    }
+
+    /// Damped BFGS update (Powell) of each element's Hessian approximation from the last
+    /// evaluated point `st.zc` (with `st.dcand` and `st.ev` at it) and the reference, with
+    /// the last subproblem's duals: `y_e = (A_e(z) − A_e(z̄))ᵀ λ`.
+    fn update_hessian(&self, st: &mut Iterate) {
+        for (v, src) in st.nz_new.iter_mut().zip(&self.sources) {
+            *v = match *src {
+                Source::Const(c) => c,
+                Source::A(i) => st.dcand.a[i],
+                Source::Bm(i) => st.dcand.b_minus[i],
+                Source::Bp(i) => st.dcand.b_plus[i],
+                Source::G(i) => st.ev.jac[i],
+                Source::NegG(i) => -st.ev.jac[i],
+            };
+        }
+        for (e, el) in self.elements.iter().enumerate() {
+            let d = el.cols.len();
+            if d == 0 {
+                continue;
+            }
+            let (sv, gv) = (&mut st.qn_s[..d], &mut st.qn_g[..d]);
+            for (a, &c) in el.cols.iter().enumerate() {
+                sv[a] = st.zc[c] - st.zbar[c];
+                gv[a] = (self.a_colptr[c]..self.a_colptr[c + 1])
+                    .filter(|&p| self.row_elem[self.a_rowval[p]] == e)
+                    .map(|p| (st.nz_new[p] - st.nz[p]) * st.duals[self.a_rowval[p]])
+                    .sum();
+            }
+            let ss: f64 = sv.iter().zip(&el.cols).map(|(x, &c)| x * x * st.inv_s2[c]).sum();
+            let sy: f64 = sv.iter().zip(gv.iter()).map(|(a, b)| a * b).sum();
+            if ss < 1e-20 {
+                continue;
+            }
+            let h = &mut st.hess[e];
+            if !st.hess_ready[e] {
+                // Initial scaled identity γ·S⁻² with γ = ‖ŷ‖²/ŷᵀŝ (Nocedal–Wright 6.20) in the
+                // trust-region scaling.
+                let yy: f64 = gv.iter().zip(&el.cols).map(|(g, &c)| g * g / st.inv_s2[c]).sum();
+                if sy <= 1e-12 * (yy * ss).sqrt() {
+                    continue;
+                }
+                let gamma = QN_INITIAL_SCALE * yy / sy;
+                h.fill(0.0);
+                for (a, &c) in el.cols.iter().enumerate() {
+                    h[a * d + a] = gamma * st.inv_s2[c];
+                }
+                st.hess_ready[e] = true;
+            }
+            let hs = &mut st.qn_hs[..d];
+            for a in 0..d {
+                hs[a] = (0..d).map(|b| h[a * d + b] * sv[b]).sum();
+            }
+            let shs: f64 = sv.iter().zip(hs.iter()).map(|(a, b)| a * b).sum();
+            if shs <= 1e-300 {
+                continue;
+            }
+            let theta = if sy >= 0.2 * shs { 1.0 } else { 0.8 * shs / (shs - sy) };
+            let r = &mut st.qn_r[..d];
+            for a in 0..d {
+                r[a] = theta * gv[a] + (1.0 - theta) * hs[a];
+            }
+            let sr: f64 = sv.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
+            if sr <= 1e-300 {
+                continue;
+            }
+            for a in 0..d {
+                for b in 0..d {
+                    h[a * d + b] += r[a] * r[b] / sr - hs[a] * hs[b] / shs;
+                }
+            }
+        }
     }
 
     /// Records the final iteration with its status.
@@ -1475,6 +1764,18 @@ struct Iterate {
     jbar: f64,
     tf: f64,
     history: Vec<Iteration>,
+    /// Per element: its Hessian approximation (`d×d`, row-major) and whether it has one.
+    hess: Vec<Vec<f64>>,
+    hess_ready: Vec<bool>,
+    /// Duals of the last subproblem.
+    duals: Vec<f64>,
+    /// Constraint coefficients at the candidate.
+    nz_new: Vec<f64>,
+    /// Element scratch: step, gradient difference, H·step, damped difference.
+    qn_s: Vec<f64>,
+    qn_g: Vec<f64>,
+    qn_hs: Vec<f64>,
+    qn_r: Vec<f64>,
     status: Option<PtrStatus>,
     timings: Timings,
     q: Vec<f64>,

@@ -2,7 +2,7 @@
 //! (x_f, y_f) (y downward) fastest along a cycloid x = R(φ − sin φ), y = R(1 − cos φ), in
 //! T = φ_f·√(R/g), with φ_f solving (φ − sin φ)/(1 − cos φ) = x_f/y_f.
 
-use armature_scvx::{Dynamics, Ocp, Ptr, PtrSettings, PtrStatus};
+use armature_scvx::{Dynamics, Merit, Ocp, Ptr, PtrSettings, PtrStatus};
 use armature_symbolic::Expr;
 
 const G: f64 = 9.81;
@@ -25,6 +25,21 @@ fn analytic(xf: f64, yf: f64) -> f64 {
 
 #[test]
 fn brachistochrone_matches_the_cycloid() {
+    check(PtrSettings { max_iterations: 200, ..PtrSettings::default() });
+}
+
+/// The same with the quasi-Newton model and the Lagrangian merit.
+#[test]
+fn brachistochrone_matches_the_cycloid_with_quasi_newton() {
+    check(PtrSettings {
+        max_iterations: 200,
+        quasi_newton: true,
+        merit: Merit::Lagrangian { sigma: 0.5 },
+        ..PtrSettings::default()
+    });
+}
+
+fn check(settings: PtrSettings) {
     let (xf, yf) = (1.0, 0.6);
     let nodes = 31;
     let pos = Expr::variable("pos", 2);
@@ -51,7 +66,7 @@ fn brachistochrone_matches_the_cycloid() {
         increments: vec![],
         nodal: vec![],
     };
-    let mut ptr = Ptr::new(ocp, PtrSettings { max_iterations: 200, ..PtrSettings::default() });
+    let mut ptr = Ptr::new(ocp, settings);
     // Guess: straight line at 45°, speed growing, 1 s.
     let x: Vec<f64> = (0..nodes)
         .flat_map(|k| {

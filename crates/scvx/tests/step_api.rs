@@ -2,7 +2,7 @@
 //! minimum-time double integrator.
 
 use armature_scvx::{
-    Dynamics, IterationTable, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings,
+    Dynamics, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings,
     PtrStatus, TrustRegionUpdate,
 };
 
@@ -141,6 +141,10 @@ fn bad_input_is_an_error_not_a_panic() {
         (PtrSettings { lam_tr: -1.0, ..PtrSettings::default() }, "lam_tr"),
         (PtrSettings { max_iterations: 0, ..PtrSettings::default() }, "max_iterations"),
         (PtrSettings { eps_tr: f64::NAN, ..PtrSettings::default() }, "eps_tr"),
+        (
+            PtrSettings { merit: Merit::Lagrangian { sigma: 1.5 }, ..PtrSettings::default() },
+            "merit.sigma",
+        ),
     ] {
         assert!(settings.validate().is_err());
         let err = Ptr::new(problem(nodes), settings).solve(&x, &u, &s).unwrap_err();
