@@ -1203,16 +1203,7 @@ impl Ptr {
         let set = &self.settings;
         // Values of this linearization.
         self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb);
-        for (v, src) in st.nz.iter_mut().zip(&self.sources) {
-            *v = match *src {
-                Source::Const(c) => c,
-                Source::A(i) => st.dbar.a[i],
-                Source::Bm(i) => st.dbar.b_minus[i],
-                Source::Bp(i) => st.dbar.b_plus[i],
-                Source::G(i) => st.ev.jac[i],
-                Source::NegG(i) => -st.ev.jac[i],
-            };
-        }
+        fill_values(&self.sources, &st.dbar, &st.ev, &mut st.nz);
         // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
         // the constant rows `A z ≤ b` become `A Δz ≤ b − A z̄`. The objective then carries no
         // λ_tr‖z̄‖² offset, which at large λ_tr would swamp Clarabel's relative gap tolerance.
@@ -1501,16 +1492,7 @@ impl Ptr {
     /// evaluated point `st.zc` (with `st.dcand` and `st.ev` at it) and the reference, with
     /// the last subproblem's duals: `y_e = (A_e(z) − A_e(z̄))ᵀ λ`.
     fn update_hessian(&self, st: &mut Iterate) {
-        for (v, src) in st.nz_new.iter_mut().zip(&self.sources) {
-            *v = match *src {
-                Source::Const(c) => c,
-                Source::A(i) => st.dcand.a[i],
-                Source::Bm(i) => st.dcand.b_minus[i],
-                Source::Bp(i) => st.dcand.b_plus[i],
-                Source::G(i) => st.ev.jac[i],
-                Source::NegG(i) => -st.ev.jac[i],
-            };
-        }
+        fill_values(&self.sources, &st.dcand, &st.ev, &mut st.nz_new);
         for (e, el) in self.elements.iter().enumerate() {
             let d = el.cols.len();
             if d == 0 {
@@ -1593,6 +1575,20 @@ pub struct SubproblemDimensions {
     pub cone_rows: usize,
     /// Structural nonzeros of `A`.
     pub nonzeros: usize,
+}
+
+/// The constraint matrix's values from their sources at one linearization.
+fn fill_values(sources: &[Source], d: &Discretization, ev: &NodalEval, out: &mut [f64]) {
+    for (v, src) in out.iter_mut().zip(sources) {
+        *v = match *src {
+            Source::Const(c) => c,
+            Source::A(i) => d.a[i],
+            Source::Bm(i) => d.b_minus[i],
+            Source::Bp(i) => d.b_plus[i],
+            Source::G(i) => ev.jac[i],
+            Source::NegG(i) => -ev.jac[i],
+        };
+    }
 }
 
 /// Clarabel's status as a static name (no allocation per iteration).
