@@ -1526,28 +1526,7 @@ impl Ptr {
                 }
                 st.hess_ready[e] = true;
             }
-            let hs = &mut st.qn_hs[..d];
-            for a in 0..d {
-                hs[a] = (0..d).map(|b| h[a * d + b] * sv[b]).sum();
-            }
-            let shs: f64 = sv.iter().zip(hs.iter()).map(|(a, b)| a * b).sum();
-            if shs <= 1e-300 {
-                continue;
-            }
-            let theta = if sy >= 0.2 * shs { 1.0 } else { 0.8 * shs / (shs - sy) };
-            let r = &mut st.qn_r[..d];
-            for a in 0..d {
-                r[a] = theta * gv[a] + (1.0 - theta) * hs[a];
-            }
-            let sr: f64 = sv.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
-            if sr <= 1e-300 {
-                continue;
-            }
-            for a in 0..d {
-                for b in 0..d {
-                    h[a * d + b] += r[a] * r[b] / sr - hs[a] * hs[b] / shs;
-                }
-            }
+            damped_bfgs(h, sv, gv, &mut st.qn_hs[..d], &mut st.qn_r[..d]);
         }
     }
 
@@ -1575,6 +1554,35 @@ pub struct SubproblemDimensions {
     pub cone_rows: usize,
     /// Structural nonzeros of `A`.
     pub nonzeros: usize,
+}
+
+/// Powell's damped BFGS update of the symmetric positive-definite `h` (`d×d`, row-major)
+/// with the step `s` and the gradient difference `y`: `y` is replaced by
+/// `r = θy + (1 − θ)Hs` with θ < 1 only when `sᵀy < 0.2·sᵀHs`, so `sᵀr ≥ 0.2·sᵀHs > 0` and
+/// `H⁺ = H − HssᵀH/sᵀHs + rrᵀ/sᵀr` stays positive definite and satisfies `H⁺s = r` (the
+/// secant equation when undamped). `hs` and `r` are scratch of length `d`. Returns false
+/// (and leaves `h`) when `sᵀHs` is zero.
+fn damped_bfgs(h: &mut [f64], s: &[f64], y: &[f64], hs: &mut [f64], r: &mut [f64]) -> bool {
+    let d = s.len();
+    for a in 0..d {
+        hs[a] = (0..d).map(|b| h[a * d + b] * s[b]).sum();
+    }
+    let shs: f64 = s.iter().zip(hs.iter()).map(|(a, b)| a * b).sum();
+    if shs <= 1e-300 {
+        return false;
+    }
+    let sy: f64 = s.iter().zip(y).map(|(a, b)| a * b).sum();
+    let theta = if sy >= 0.2 * shs { 1.0 } else { 0.8 * shs / (shs - sy) };
+    for a in 0..d {
+        r[a] = theta * y[a] + (1.0 - theta) * hs[a];
+    }
+    let sr: f64 = s.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
+    for a in 0..d {
+        for b in 0..d {
+            h[a * d + b] += r[a] * r[b] / sr - hs[a] * hs[b] / shs;
+        }
+    }
+    true
 }
 
 /// The constraint matrix's values from their sources at one linearization.
@@ -1793,5 +1801,82 @@ impl std::fmt::Debug for Iterate {
             .field("final_time", &self.tf)
             .field("lam_tr", &self.lam_tr)
             .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::damped_bfgs;
+    use proptest::prelude::*;
+
+    /// `h` (d×d) times `v`.
+    fn mul(h: &[f64], v: &[f64]) -> Vec<f64> {
+        let d = v.len();
+        (0..d).map(|a| (0..d).map(|b| h[a * d + b] * v[b]).sum()).collect()
+    }
+
+    /// Positive definite by Cholesky.
+    fn positive_definite(h: &[f64], d: usize) -> bool {
+        let mut l = vec![0.0; d * d];
+        for i in 0..d {
+            for j in 0..=i {
+                let s: f64 = (0..j).map(|k| l[i * d + k] * l[j * d + k]).sum();
+                if i == j {
+                    let v = h[i * d + i] - s;
+                    if v <= 0.0 {
+                        return false;
+                    }
+                    l[i * d + i] = v.sqrt();
+                } else {
+                    l[i * d + j] = (h[i * d + j] - s) / l[j * d + j];
+                }
+            }
+        }
+        true
+    }
+
+    proptest! {
+        /// Undamped (positive curvature) the update satisfies the secant equation H⁺s = y;
+        /// with any pair it stays symmetric positive definite.
+        #[test]
+        fn damped_bfgs_keeps_the_secant_equation_and_positive_definiteness(
+            diag in prop::collection::vec(0.1f64..10.0, 4),
+            s in prop::collection::vec(-1.0f64..1.0, 4),
+            y in prop::collection::vec(-1.0f64..1.0, 4),
+        ) {
+            let d = 4;
+            prop_assume!(s.iter().map(|v| v * v).sum::<f64>() > 1e-3);
+            let mut h = vec![0.0; d * d];
+            for (a, v) in diag.iter().enumerate() {
+                h[a * d + a] = *v;
+            }
+            let hs0 = mul(&h, &s);
+            let shs: f64 = s.iter().zip(&hs0).map(|(a, b)| a * b).sum();
+            let sy: f64 = s.iter().zip(&y).map(|(a, b)| a * b).sum();
+            let (mut hs, mut r) = (vec![0.0; d], vec![0.0; d]);
+            prop_assert!(damped_bfgs(&mut h, &s, &y, &mut hs, &mut r));
+            for a in 0..d {
+                for b in 0..d {
+                    prop_assert!((h[a * d + b] - h[b * d + a]).abs() < 1e-9);
+                }
+            }
+            prop_assert!(positive_definite(&h, d), "{h:?}");
+            // H⁺s = r always; r = y when sᵀy ≥ 0.2·sᵀHs.
+            let hs1 = mul(&h, &s);
+            for a in 0..d {
+                prop_assert!((hs1[a] - r[a]).abs() < 1e-8 * (1.0 + r[a].abs()));
+                if sy >= 0.2 * shs {
+                    prop_assert!((hs1[a] - y[a]).abs() < 1e-8 * (1.0 + y[a].abs()));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn damped_bfgs_refuses_a_zero_step() {
+        let mut h = vec![1.0, 0.0, 0.0, 1.0];
+        let (mut hs, mut r) = (vec![0.0; 2], vec![0.0; 2]);
+        assert!(!damped_bfgs(&mut h, &[0.0, 0.0], &[1.0, 1.0], &mut hs, &mut r));
+        assert_eq!(h, vec![1.0, 0.0, 0.0, 1.0]);
     }
 }
