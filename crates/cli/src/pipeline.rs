@@ -499,6 +499,11 @@ pub fn settings(
             }
         };
     }
+    if let Some(v) = &s.merit_sigma
+        && !matches!(p.merit, armature_scvx::Merit::Lagrangian { .. })
+    {
+        return Err(src.error(v, "merit_sigma applies only with merit = \"lagrangian\""));
+    }
     if let Some(dt) = &s.dense_dt {
         p.dense_dt = *dt.get_ref();
         if !(p.dense_dt.is_finite() && p.dense_dt > 0.0) {

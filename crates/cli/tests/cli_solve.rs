@@ -191,6 +191,12 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "merit_sigma = 2.0\nquasi_newton = true",
         "must lie in [0, 1]",
     );
+    bad(
+        "merit-sigma-alone",
+        "merit = \"lagrangian\"",
+        "merit_sigma = 0.2",
+        "merit_sigma applies only with merit",
+    );
 }
 
 #[test]

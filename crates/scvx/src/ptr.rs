@@ -403,6 +403,12 @@ pub struct Iteration {
     pub rho: f64,
     /// λ_tr used.
     pub lam_tr: f64,
+    /// How hard the trust region holds the step back: `max_i |2λ_tr·Δz_i/S_i|`, the
+    /// gradient of the trust-region term at the step in scaled variables. The subproblem's
+    /// optimality makes it part of the Lagrangian's gradient at the reference, so it is
+    /// near zero only near a stationary point; a short step with a large value was kept
+    /// short by a heavy λ_tr. The PTR stopping rule does not require it to be small.
+    pub tr_gradient: f64,
     /// Wall time of the candidate's discretization (ms).
     pub discretization_ms: f64,
     /// Wall time of the subproblem: data update (or setup) and solve (ms).
@@ -1294,6 +1300,7 @@ impl Ptr {
             final_time: st.tf,
             rho: f64::NAN,
             lam_tr: st.lam_tr,
+            tr_gradient: f64::NAN,
             discretization_ms: 0.0,
             subproblem_ms: 0.0,
             subproblem_iterations: 0,
@@ -1327,6 +1334,9 @@ impl Ptr {
         let vb_cost: f64 =
             z[self.vb0..nv].iter().zip(&st.lam_vb).map(|(v, w)| w * v.max(0.0)).sum();
         let j_tr: f64 = (0..n_primal).map(|i| z[i] * z[i] * st.inv_s2[i]).sum();
+        record.tr_gradient = (0..n_primal)
+            .map(|c| (2.0 * st.lam_tr * st.inv_s2[c].sqrt() * z[c]).abs())
+            .fold(0.0, f64::max);
         // The quadratic model term ½ΔzᵀHΔz of the prediction.
         let mut quad = 0.0;
         if qn {
@@ -1708,7 +1718,7 @@ impl IterationTable {
     pub fn header(w: &mut impl std::io::Write) -> std::io::Result<()> {
         writeln!(
             w,
-            "{:>4} {:>3} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
+            "{:>4} {:>3} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
             "iter",
             "acc",
             "disc ms",
@@ -1719,6 +1729,7 @@ impl IterationTable {
             "J_vc",
             "defect",
             "violation",
+            "TR grad",
             "λ_tr",
             "ipm"
         )
@@ -1731,7 +1742,7 @@ impl IterationTable {
     pub fn row(w: &mut impl std::io::Write, it: &Iteration) -> std::io::Result<()> {
         writeln!(
             w,
-            "{:>4} {:>3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
+            "{:>4} {:>3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
             it.iteration,
             if it.accepted { "yes" } else { "no" },
             it.discretization_ms,
@@ -1742,6 +1753,7 @@ impl IterationTable {
             it.j_vc,
             it.max_defect,
             it.max_violation,
+            it.tr_gradient,
             it.lam_tr,
             it.subproblem_iterations,
             it.subproblem_status

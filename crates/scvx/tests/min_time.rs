@@ -31,9 +31,11 @@ fn problem(nodes: usize) -> Ocp {
 #[test]
 fn minimum_time_double_integrator_is_bang_bang() {
     let nodes = 41;
-    // The published PTR: constant trust region, heavy virtual-control price.
+    // The published PTR: constant trust region, heavy virtual-control price, no
+    // quasi-Newton model.
     let settings = PtrSettings {
         trust_region: TrustRegionUpdate::Constant,
+        quasi_newton: false,
         lam_vc: 1e2,
         eps_tr: 1e-4,
         ..PtrSettings::default()
