@@ -849,6 +849,7 @@ impl Ptr {
             second_order_cones: self.socs.len(),
             cone_rows: self.socs.iter().sum(),
             nonzeros: self.a_rowval.len(),
+            hessian_nonzeros: self.p_rowval.len(),
         }
     }
 
@@ -1564,6 +1565,9 @@ pub struct SubproblemDimensions {
     pub cone_rows: usize,
     /// Structural nonzeros of `A`.
     pub nonzeros: usize,
+    /// Structural nonzeros of the upper triangle of `P`: the trust-region diagonal plus,
+    /// with [`PtrSettings::quasi_newton`], the Hessian blocks.
+    pub hessian_nonzeros: usize,
 }
 
 /// Powell's damped BFGS update of the symmetric positive-definite `h` (`d×d`, row-major)

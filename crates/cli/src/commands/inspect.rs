@@ -115,13 +115,14 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     let dims = compiled.ptr().dimensions();
     let _ = writeln!(
         s,
-        "\nsubproblem: {} variables; {} equality, {} inequality rows; {} second-order cones ({} rows); {} nonzeros in A",
+        "\nsubproblem: {} variables; {} equality, {} inequality rows; {} second-order cones ({} rows); {} nonzeros in A, {} in P (upper triangle)",
         dims.variables,
         dims.equality_rows,
         dims.inequality_rows,
         dims.second_order_cones,
         dims.cone_rows,
-        dims.nonzeros
+        dims.nonzeros,
+        dims.hessian_nonzeros
     );
     out.write_all(s.as_bytes()).map_err(|e| CliError { message: e.to_string(), code: exit::IO })
 }
