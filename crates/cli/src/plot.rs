@@ -371,17 +371,30 @@ where
             }
         }
     }
+    // Waypoints that coincide in this view (e.g. grasp under pre_grasp, seen from above)
+    // share one label instead of printing over each other.
+    let mut labels: Vec<((f64, f64), String)> = Vec::new();
     for w in &plan.waypoints {
         let p = w.position;
         chart.draw_series(std::iter::once(PathElement::new(
             stadium(p, p, w.tolerance, (i, j)),
             BLACK.stroke_width(1),
         )))?;
-        chart.draw_series(std::iter::once(Text::new(
-            w.name.clone(),
-            (p[i], p[j]),
-            ("sans-serif", 12),
-        )))?;
+        let at = (p[i], p[j]);
+        match labels.iter_mut().find(|(q, _)| (q.0 - at.0).hypot(q.1 - at.1) < 1e-3) {
+            Some((_, text)) if text.split(", ").any(|n| n == w.name) => {}
+            Some((_, text)) => {
+                text.push_str(", ");
+                text.push_str(&w.name);
+            }
+            None => labels.push((at, w.name.clone())),
+        }
+    }
+    for (at, text) in labels {
+        // Beside the marker rather than on it.
+        chart.draw_series(std::iter::once(
+            EmptyElement::at(at) + Text::new(text, (8, -6), ("sans-serif", 12)),
+        ))?;
     }
     Ok(())
 }
