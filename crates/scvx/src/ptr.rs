@@ -1031,6 +1031,7 @@ impl Ptr {
         st.lam_tr = self.settings.lam_tr;
         st.hess_ready.fill(false);
         st.history.clear();
+        st.history.reserve(self.settings.max_iterations);
         st.status = None;
         (st.jbar, st.tf, _, _) =
             self.merit(x, u, s, &st.dbar, &mut st.ev, (&st.lam_vc, &st.lam_vb));

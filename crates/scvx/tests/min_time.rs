@@ -28,6 +28,17 @@ fn problem(nodes: usize) -> Ocp {
     }
 }
 
+/// Solves the 41-node problem from a poor guess (straight line in position, no
+/// acceleration, 3 s) and prints the outcome under `label`.
+fn solve_from_a_poor_guess(settings: PtrSettings, label: &str) -> armature_scvx::PtrResult {
+    let nodes = 41;
+    let mut ptr = Ptr::new(problem(nodes), settings);
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    eprintln!("{label}: {:?} after {} iterations, T = {}", r.status, r.history.len(), r.final_time);
+    r
+}
+
 #[test]
 fn minimum_time_double_integrator_is_bang_bang() {
     let nodes = 41;
@@ -40,10 +51,7 @@ fn minimum_time_double_integrator_is_bang_bang() {
         eps_tr: 1e-4,
         ..PtrSettings::default()
     };
-    let mut ptr = Ptr::new(problem(nodes), settings);
-    // A poor guess: straight line in position, no acceleration, 3 s.
-    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
-    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    let r = solve_from_a_poor_guess(settings, "published PTR");
     for h in &r.history {
         eprintln!(
             "it {:2} acc {} j_tr {:.2e} j_vc {:.2e} defect {:.2e} tf {:.5} rho {:.3} lam {:.2e}",
@@ -75,21 +83,12 @@ fn minimum_time_double_integrator_is_bang_bang() {
 #[test]
 fn adaptive_trust_region_never_resolves_an_identical_subproblem() {
     use armature_scvx::TrustRegionUpdate;
-    let nodes = 41;
     let settings = PtrSettings {
         trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.7] },
         max_iterations: 200,
         ..PtrSettings::default()
     };
-    let mut ptr = Ptr::new(problem(nodes), settings);
-    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
-    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
-    eprintln!(
-        "adaptive: {:?} after {} iterations, T = {}",
-        r.status,
-        r.history.len(),
-        r.final_time
-    );
+    let r = solve_from_a_poor_guess(settings, "adaptive");
     assert!(r.history.iter().any(|h| !h.accepted), "the test should exercise rejections");
     for w in r.history.windows(2) {
         if !w[0].accepted {
@@ -97,4 +96,23 @@ fn adaptive_trust_region_never_resolves_an_identical_subproblem() {
         }
     }
     assert!(r.final_time < 2.5, "T = {} (guess 3 s, optimum 2 s)", r.final_time);
+}
+
+/// The quasi-Newton model with the Lagrangian merit and the adaptive trust region reaches
+/// the analytic minimum time of the double integrator from the same poor guess.
+#[test]
+fn quasi_newton_reaches_the_minimum_time() {
+    use armature_scvx::Merit;
+    let nodes = 41;
+    let settings = PtrSettings {
+        quasi_newton: true,
+        merit: Merit::Lagrangian { sigma: 0.5 },
+        max_iterations: 200,
+        ..PtrSettings::default()
+    };
+    let r = solve_from_a_poor_guess(settings, "quasi-Newton");
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert!(r.final_time >= 2.0 - 1e-6 && r.final_time < 2.0 * 1.01, "T = {}", r.final_time);
+    let last = &r.x[(nodes - 1) * 2..];
+    assert!((last[0] - 1.0).abs() < 1e-6 && last[1].abs() < 1e-6);
 }

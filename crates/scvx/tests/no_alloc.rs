@@ -1,0 +1,39 @@
+//! A PTR iteration allocates nothing of ours once running: a counting global allocator
+//! watches `step()` on this thread. The one allocation left per step is Clarabel's: each
+//! `solve()` rebuilds its timer map (a `HashMap` keyed by phase name), which no setting
+//! turns off.
+
+mod seed;
+
+use armature_scvx::{Merit, Ptr, PtrSettings};
+use armature_testing::{Counting, allocations_during};
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn ptr_steps_are_allocation_free() {
+    let s = seed::build();
+    for quasi_newton in [false, true] {
+        let settings = PtrSettings {
+            quasi_newton,
+            merit: if quasi_newton {
+                Merit::Lagrangian { sigma: 0.5 }
+            } else {
+                Merit::ExactPenalty
+            },
+            ..PtrSettings::default()
+        };
+        let mut ptr = Ptr::new(s.ocp.clone(), settings);
+        ptr.start(&s.x, &s.u, &s.s).unwrap();
+        ptr.step().unwrap();
+        ptr.step().unwrap();
+        for _ in 0..5 {
+            let count = allocations_during(|| {
+                ptr.step().unwrap();
+            });
+            assert!(count <= 1, "quasi_newton {quasi_newton}: {count} allocations in a step");
+        }
+    }
+    assert!(allocations_during(|| drop(std::hint::black_box(vec![0u8; 16]))) > 0);
+}

@@ -1,0 +1,67 @@
+//! Test support shared by the armature crates (not published).
+//!
+//! [`Counting`] is a global allocator that counts the allocations made on the current thread
+//! while [`allocations_during`] watches a closure; a test binary installs it with
+//!
+//! ```
+//! use armature_testing::{Counting, allocations_during};
+//!
+//! #[global_allocator]
+//! static GLOBAL: Counting = Counting;
+//!
+//! let mut v: Vec<f64> = Vec::with_capacity(4);
+//! assert_eq!(allocations_during(|| v.push(1.0)), 0);
+//! assert_eq!(allocations_during(|| drop(vec![1.0; 8])), 1);
+//! ```
+//!
+//! Only the watching thread counts: work sent to other threads (a rayon pool) is not seen.
+
+#![warn(missing_docs)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static WATCHING: Cell<bool> = const { Cell::new(false) };
+}
+
+/// The system allocator, counting allocations and reallocations made on a watching thread.
+#[derive(Debug)]
+pub struct Counting;
+
+// SAFETY: every call is forwarded unchanged to the system allocator; the counting touches
+// only an atomic and a thread-local flag, neither of which allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract is passed on unchanged.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: the caller's contract is passed on unchanged.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract is passed on unchanged.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+fn count() {
+    if WATCHING.with(|w| w.get()) {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+/// Runs `f` and returns how many allocations it made on this thread (with [`Counting`]
+/// installed as the global allocator; 0 otherwise).
+pub fn allocations_during(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    WATCHING.with(|w| w.set(true));
+    f();
+    WATCHING.with(|w| w.set(false));
+    ALLOCATIONS.load(Ordering::SeqCst) - before
+}
