@@ -1,5 +1,7 @@
 //! CTCS and nodal constraints in the PTR loop, on problems with known answers.
 
+mod double_integrator;
+
 use armature_scvx::{
     CtcsGroup, Dynamics, NodalConstraint, NodalKind, Ocp, Ptr, PtrSettings, PtrStatus,
     TrustRegionUpdate, ctcs_states,
@@ -109,42 +111,22 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
 #[test]
 fn nodal_constraint_holds_at_convergence() {
     let nodes = 31;
-    let p = Expr::variable("p", 1);
-    let v = Expr::variable("v", 1);
-    let a = Expr::variable("a", 1);
-    let dynamics =
-        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
-            .unwrap();
-    let g = Function::compile(
-        &[(&p - 0.3) * (1.0 + v.square() * 0.0)],
-        &[&[p.clone(), v.clone()], &[a.clone()]],
-    )
-    .unwrap();
-    let ocp = Ocp {
-        dynamics,
-        nodes,
-        x_min: vec![-10.0, -10.0],
-        x_max: vec![10.0, 10.0],
-        u_min: vec![-1.0],
-        u_max: vec![1.0],
-        x_initial: vec![Some(0.0), Some(0.0)],
-        x_final: vec![Some(1.0), Some(0.0)],
-        s_min: 0.1,
-        s_max: 10.0,
-        final_time: (0.0, f64::INFINITY),
-        time_weight: 1.0,
-        final_cost: vec![],
-        increments: vec![],
-        nodal: vec![NodalConstraint {
+    let ocp = double_integrator::problem(nodes, |p, v, a| {
+        let g = Function::compile(
+            &[(p - 0.3) * (1.0 + v.square() * 0.0)],
+            &[&[p.clone(), v.clone()], &[a.clone()]],
+        )
+        .unwrap();
+        vec![NodalConstraint {
             name: "slow start".into(),
             function: g,
             nodes: vec![15],
             kind: NodalKind::Inequality,
-        }],
-    };
+        }]
+    });
     let mut ptr = Ptr::new(ocp, published_ptr(100));
-    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
-    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    let (x, u, s) = double_integrator::poor_guess(nodes);
+    let r = ptr.solve(&x, &u, &s).unwrap();
     eprintln!("status {:?}, iterations {}, T = {}", r.status, r.history.len(), r.final_time);
     assert_eq!(r.status, PtrStatus::Converged);
     assert!(r.x[15 * 2] <= 0.3 + 1e-6, "p at node 15 = {}", r.x[15 * 2]);

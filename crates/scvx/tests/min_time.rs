@@ -1,40 +1,17 @@
 //! Analytic reference: the minimum-time double integrator is bang–bang with T* = 2 s for a
 //! rest-to-rest move of 1 m with |a| ≤ 1 m/s².
 
-use armature_scvx::{Dynamics, Ocp, Ptr, PtrSettings, PtrStatus, TrustRegionUpdate};
-use armature_symbolic::Expr;
+mod double_integrator;
 
-fn problem(nodes: usize) -> Ocp {
-    let p = Expr::variable("p", 1);
-    let v = Expr::variable("v", 1);
-    let a = Expr::variable("a", 1);
-    let dynamics = Dynamics::new(&[p, v.clone()], &[a.clone()], &[v, a], &[true]).unwrap();
-    Ocp {
-        dynamics,
-        nodes,
-        x_min: vec![-10.0, -10.0],
-        x_max: vec![10.0, 10.0],
-        u_min: vec![-1.0],
-        u_max: vec![1.0],
-        x_initial: vec![Some(0.0), Some(0.0)],
-        x_final: vec![Some(1.0), Some(0.0)],
-        s_min: 0.1,
-        s_max: 10.0,
-        final_time: (0.0, f64::INFINITY),
-        time_weight: 1.0,
-        final_cost: vec![],
-        increments: vec![],
-        nodal: vec![],
-    }
-}
+use armature_scvx::{Ptr, PtrSettings, PtrStatus, TrustRegionUpdate};
+use double_integrator::{poor_guess, problem};
 
-/// Solves the 41-node problem from a poor guess (straight line in position, no
-/// acceleration, 3 s) and prints the outcome under `label`.
+/// Solves the 41-node problem from the poor guess and prints the outcome under `label`.
 fn solve_from_a_poor_guess(settings: PtrSettings, label: &str) -> armature_scvx::PtrResult {
     let nodes = 41;
-    let mut ptr = Ptr::new(problem(nodes), settings);
-    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
-    let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    let mut ptr = Ptr::new(problem(nodes, |_, _, _| vec![]), settings);
+    let (x, u, s) = poor_guess(nodes);
+    let r = ptr.solve(&x, &u, &s).unwrap();
     eprintln!("{label}: {:?} after {} iterations, T = {}", r.status, r.history.len(), r.final_time);
     r
 }

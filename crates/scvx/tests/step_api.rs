@@ -1,9 +1,11 @@
 //! The step API, the observer hook, the iteration table and outcomes as data, on the
 //! minimum-time double integrator.
 
+mod double_integrator;
+
 use armature_scvx::{
-    Dynamics, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings,
-    PtrStatus, TrustRegionUpdate,
+    IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings, PtrStatus,
+    TrustRegionUpdate,
 };
 
 /// The published PTR (constant trust region, heavy virtual-control price), as in
@@ -17,50 +19,27 @@ fn settings() -> PtrSettings {
     }
 }
 use armature_symbolic::{Expr, Function};
+use double_integrator::poor_guess;
 
+/// The double integrator with its mid-course nodal constraint.
 fn problem(nodes: usize) -> Ocp {
-    let p = Expr::variable("p", 1);
-    let v = Expr::variable("v", 1);
-    let a = Expr::variable("a", 1);
-    let dynamics =
-        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
-            .unwrap();
-    // At the middle node, position at least 0.6 (nonconvex only in form: `0.6 − p ≤ 0`).
-    let args = [vec![p.clone(), v], vec![a]];
-    let g = Function::compile(&[Expr::scalar(0.6) - &p], &[&args[0], &args[1]]).unwrap();
-    Ocp {
-        dynamics,
-        nodes,
-        x_min: vec![-10.0, -10.0],
-        x_max: vec![10.0, 10.0],
-        u_min: vec![-1.0],
-        u_max: vec![1.0],
-        x_initial: vec![Some(0.0), Some(0.0)],
-        x_final: vec![Some(1.0), Some(0.0)],
-        s_min: 0.1,
-        s_max: 10.0,
-        final_time: (0.0, f64::INFINITY),
-        time_weight: 1.0,
-        final_cost: vec![],
-        increments: vec![],
-        nodal: vec![NodalConstraint {
+    double_integrator::problem(nodes, |p, v, a| {
+        // At the middle node, position at least 0.6 (nonconvex only in form: `0.6 − p ≤ 0`).
+        let args = [vec![p.clone(), v.clone()], vec![a.clone()]];
+        let g = Function::compile(&[Expr::scalar(0.6) - p], &[&args[0], &args[1]]).unwrap();
+        vec![NodalConstraint {
             name: "past 0.6 at mid-course".into(),
             function: g,
             nodes: vec![nodes / 2],
             kind: NodalKind::Inequality,
-        }],
-    }
-}
-
-fn guess(nodes: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let x = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
-    (x, vec![0.0; nodes], vec![3.0; nodes])
+        }]
+    })
 }
 
 #[test]
 fn stepping_by_hand_equals_solve_and_the_observer_sees_every_iteration() {
     let nodes = 21;
-    let (x, u, s) = guess(nodes);
+    let (x, u, s) = poor_guess(nodes);
     let mut ptr = Ptr::new(problem(nodes), settings());
     let mut seen = Vec::new();
     let mut table = Vec::new();
@@ -102,7 +81,7 @@ fn stepping_by_hand_equals_solve_and_the_observer_sees_every_iteration() {
 #[test]
 fn an_unfinished_solve_reports_what_it_still_violates() {
     let nodes = 21;
-    let (x, u, s) = guess(nodes);
+    let (x, u, s) = poor_guess(nodes);
     let r = Ptr::new(problem(nodes), PtrSettings { max_iterations: 1, ..settings() })
         .solve(&x, &u, &s)
         .unwrap();
@@ -126,7 +105,7 @@ fn an_unfinished_solve_reports_what_it_still_violates() {
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
     let nodes = 11;
-    let (x, u, s) = guess(nodes);
+    let (x, u, s) = poor_guess(nodes);
     let mut ptr = Ptr::new(problem(nodes), PtrSettings::default());
     assert_eq!(ptr.step(), Err(PtrError::NotRunning));
     assert!(ptr.result().is_none());
