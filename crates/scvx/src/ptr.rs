@@ -738,16 +738,11 @@ impl Ptr {
         for (k, re) in row_elem.iter_mut().take((nn - 1) * n).enumerate() {
             *re = k / n;
         }
-        {
-            let mut e = 0;
-            for c in &ocp.nodal {
-                for &k in &c.nodes {
-                    for nr in nodal_rows.iter().filter(|nr| nr.eval == e) {
-                        row_elem[nr.row] = k;
-                    }
-                    e += 1;
-                }
-            }
+        // Evaluation blocks are numbered (constraint, node) in order: the node of each.
+        let eval_node: Vec<usize> =
+            ocp.nodal.iter().flat_map(|c| c.nodes.iter().copied()).collect();
+        for nr in &nodal_rows {
+            row_elem[nr.row] = eval_node[nr.eval];
         }
         let mut elements = Vec::with_capacity(nn);
         for k in 0..nn {
@@ -925,6 +920,23 @@ impl Ptr {
             max = max.max(v);
         }
         (sum, max)
+    }
+
+    /// Discretizes at the primal point `z = [X | U | S]` into `d` and returns its merit (see
+    /// [`merit`](Self::merit)) with the discretization's wall time in ms.
+    fn evaluate(
+        &mut self,
+        z: &[f64],
+        d: &mut Discretization,
+        ev: &mut NodalEval,
+        prices: (&[f64], &[f64]),
+    ) -> Result<((f64, f64, f64, f64), f64), DiscretizationError> {
+        let (u0, s0, vp0, _) = self.layout();
+        let (x, u, s) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
+        let t = Instant::now();
+        self.ocp.dynamics.discretize(x, u, s, &self.settings.discretization, &mut self.dws, d)?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok((self.merit(x, u, s, d, ev, prices), ms))
     }
 
     /// Merit `(J, t_f, max defect, max nodal violation)` of a trajectory.
@@ -1208,7 +1220,8 @@ impl Ptr {
         let n_primal = vp0;
         let dtau = 1.0 / (nn - 1) as f64;
         let it = st.history.len() + 1;
-        let set = &self.settings;
+        // A copy (plain numbers, no allocation), so `self` stays free for the evaluations.
+        let set = &self.settings.clone();
         // Values of this linearization.
         self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb);
         fill_values(&self.sources, &st.dbar, &st.ev, &mut st.nz);
@@ -1328,7 +1341,6 @@ impl Ptr {
         for i in 0..n_primal {
             st.zc[i] = st.zbar[i] + z[i];
         }
-        let (xc, uc, sc) = (&st.zc[..u0], &st.zc[u0..s0], &st.zc[s0..vp0]);
         let j_vc: f64 = z[vp0..self.vb0].iter().map(|v| v.abs()).sum();
         let vc_cost: f64 =
             z[vp0..self.vb0].iter().enumerate().map(|(i, v)| st.lam_vc[i % n] * v.abs()).sum();
@@ -1353,21 +1365,15 @@ impl Ptr {
                 }
             }
         }
-        st.duals.copy_from_slice(&sv.solution.z);
-        let t_disc = Instant::now();
-        self.ocp.dynamics.discretize(
-            xc,
-            uc,
-            sc,
-            &set.discretization,
-            &mut self.dws,
-            &mut st.dcand,
-        )?;
-        record.discretization_ms = t_disc.elapsed().as_secs_f64() * 1e3;
-        st.timings.discretization_ms += record.discretization_ms;
-        let (mut jc, mut tfc, mut max_defect, mut max_violation) =
-            self.merit(xc, uc, sc, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
-        let mut cost = self.cost(xc, tfc);
+        // The duals price defects in the Lagrangian merit and weight the quasi-Newton pairs.
+        if qn || matches!(set.merit, Merit::Lagrangian { .. }) {
+            st.duals.copy_from_slice(&sv.solution.z);
+        }
+        let (m, ms) = self.evaluate(&st.zc, &mut st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb))?;
+        record.discretization_ms = ms;
+        st.timings.discretization_ms += ms;
+        let (mut jc, mut tfc, mut max_defect, mut max_violation) = m;
+        let mut cost = self.cost(&st.zc[..u0], tfc);
         // The Lagrangian merit's shift of the ℓ1 merit (zero for the exact penalty).
         let (lam_vc, duals) = (&st.lam_vc, &st.duals);
         let adj = |d: &[f64]| -> f64 {
@@ -1396,25 +1402,15 @@ impl Ptr {
                 for i in 0..n_primal {
                     st.zc[i] = st.zbar[i] + alpha * z[i];
                 }
-                let (xa, ua, sa) = (&st.zc[..u0], &st.zc[u0..s0], &st.zc[s0..vp0]);
-                let t_b = Instant::now();
-                self.ocp.dynamics.discretize(
-                    xa,
-                    ua,
-                    sa,
-                    &set.discretization,
-                    &mut self.dws,
-                    &mut st.dcand,
-                )?;
-                let ms = t_b.elapsed().as_secs_f64() * 1e3;
+                let (m, ms) =
+                    self.evaluate(&st.zc, &mut st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb))?;
                 record.discretization_ms += ms;
                 st.timings.discretization_ms += ms;
-                let m = self.merit(xa, ua, sa, &st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb));
                 let phi = m.0 + adj(&st.dcand.defect);
                 let r = (phibar - phi) / (alpha * predicted);
                 if r >= eta[0].max(1e-4) && phi < phibar {
                     (jc, tfc, max_defect, max_violation) = m;
-                    cost = self.cost(xa, tfc);
+                    cost = self.cost(&st.zc[..u0], tfc);
                     rho = r;
                     j_tr *= alpha * alpha;
                     accept = true;
