@@ -930,7 +930,7 @@ impl Ptr {
         d: &mut Discretization,
         ev: &mut NodalEval,
         prices: (&[f64], &[f64]),
-    ) -> Result<((f64, f64, f64, f64), f64), DiscretizationError> {
+    ) -> Result<(MeritValues, f64), DiscretizationError> {
         let (u0, s0, vp0, _) = self.layout();
         let (x, u, s) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
         let t = Instant::now();
@@ -948,7 +948,7 @@ impl Ptr {
         d: &Discretization,
         ev: &mut NodalEval,
         (lam_vc, lam_vb): (&[f64], &[f64]),
-    ) -> (f64, f64, f64, f64) {
+    ) -> MeritValues {
         let nn = self.ocp.nodes;
         let dtau = 1.0 / (nn - 1) as f64;
         let tf = dtau * s[..nn - 1].iter().sum::<f64>();
@@ -1595,6 +1595,9 @@ fn damped_bfgs(h: &mut [f64], s: &[f64], y: &[f64], hs: &mut [f64], r: &mut [f64
     }
     true
 }
+
+/// A trajectory's merit `J`, final time, largest defect and largest nodal violation.
+type MeritValues = (f64, f64, f64, f64);
 
 /// The constraint matrix's values from their sources at one linearization.
 fn fill_values(sources: &[Source], d: &Discretization, ev: &NodalEval, out: &mut [f64]) {
