@@ -1,11 +1,12 @@
 //! The seed pick-and-place: one full solve (after problem construction), the same with the
-//! quasi-Newton model and the Lagrangian merit, the same for the collision variant, and one
+//! quasi-Newton model and the Lagrangian merit, the same with the native warm-started
+//! interior point for the subproblems, the collision variant with either solver, and one
 //! discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
 
-use armature_scvx::{Merit, Ptr, PtrSettings};
+use armature_scvx::{Merit, Ptr, PtrSettings, SubproblemSettings, SubproblemSolver};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -26,10 +27,25 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve_quasi_newton", |b| {
         b.iter(|| black_box(ptr_qn.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
+    let native = PtrSettings {
+        subproblem: SubproblemSettings {
+            solver: SubproblemSolver::InteriorPoint,
+            ..SubproblemSettings::default()
+        },
+        ..PtrSettings::default()
+    };
+    let mut ptr_n = Ptr::new(s.ocp.clone(), native.clone());
+    g.bench_function("solve_interior_point", |b| {
+        b.iter(|| black_box(ptr_n.solve(&s.x, &s.u, &s.s).unwrap().final_time))
+    });
     let sc = seed::build_collision();
     let mut ptr_c = Ptr::new(sc.ocp.clone(), PtrSettings::default());
     g.bench_function("solve_collision", |b| {
         b.iter(|| black_box(ptr_c.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
+    });
+    let mut ptr_cn = Ptr::new(sc.ocp.clone(), native);
+    g.bench_function("solve_collision_interior_point", |b| {
+        b.iter(|| black_box(ptr_cn.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
     let d = &s.ocp.dynamics;
     let mut ws = d.workspace();

@@ -3,6 +3,7 @@
 
 pub mod ctcs;
 pub mod discretization;
+pub mod ipm;
 pub mod problem;
 pub mod ptr;
 
@@ -17,6 +18,6 @@ pub use problem::{
 };
 pub use ptr::{
     Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
-    PtrSettings, PtrStatus, SettingsError, SubproblemDimensions, SubproblemSettings, Timings,
-    Trajectory, TrustRegionUpdate, Violation,
+    PtrSettings, PtrStatus, SettingsError, SubproblemDimensions, SubproblemSettings,
+    SubproblemSolver, Timings, Trajectory, TrustRegionUpdate, Violation,
 };

@@ -5,7 +5,9 @@
 
 mod seed;
 
-use armature_scvx::{Merit, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus};
+use armature_scvx::{
+    Merit, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, SubproblemSettings, SubproblemSolver,
+};
 
 #[test]
 fn seed_pick_and_place_converges_and_meets_the_task() {
@@ -13,6 +15,33 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     let r = ptr.solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
+}
+
+/// The native warm-started interior point (Clarabel only as a fallback) meets the same task,
+/// to the same final time as Clarabel's first-order solve, in fewer interior-point
+/// iterations.
+#[test]
+fn native_interior_point_meets_the_task_in_fewer_subproblem_iterations() {
+    let s = seed::build();
+    let native = PtrSettings {
+        subproblem: SubproblemSettings {
+            solver: SubproblemSolver::InteriorPoint,
+            ..SubproblemSettings::default()
+        },
+        ..PtrSettings::default()
+    };
+    let r = Ptr::new(s.ocp.clone(), native).solve(&s.x, &s.u, &s.s).unwrap();
+    assert_meets_the_task(&s, &r);
+    let clarabel = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    assert!(
+        (r.final_time - clarabel.final_time).abs() < 1e-3,
+        "{} vs {}",
+        r.final_time,
+        clarabel.final_time
+    );
+    let its = |r: &PtrResult| -> u32 { r.history.iter().map(|h| h.subproblem_iterations).sum() };
+    let per = |r: &PtrResult| its(r) as f64 / r.history.len() as f64;
+    assert!(per(&r) < 0.85 * per(&clarabel), "{} vs {} per subproblem", per(&r), per(&clarabel));
 }
 
 /// The quasi-Newton model with the Lagrangian merit meets the same task and goes further
