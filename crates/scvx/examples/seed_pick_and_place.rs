@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn] [ipm]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -24,6 +24,10 @@ fn main() {
     if std::env::args().any(|a| a == "qn") {
         settings.quasi_newton = true;
         settings.merit = armature_scvx::Merit::Lagrangian { sigma: 0.5 };
+    }
+    // `-- ipm`: the native warm-started interior point for the subproblems.
+    if std::env::args().any(|a| a == "ipm") {
+        settings.subproblem.solver = armature_scvx::SubproblemSolver::InteriorPoint;
     }
     let mut ptr = Ptr::new(s.ocp.clone(), settings);
     let built = t0.elapsed();

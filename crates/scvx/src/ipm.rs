@@ -156,8 +156,6 @@ pub struct InteriorPoint {
     cones: Cones,
     settings: IpmSettings,
     /// KKT values (upper triangle, column-compressed), their positions P → KKT and A₀ → KKT.
-    kkt_colptr: Vec<usize>,
-    kkt_rowval: Vec<usize>,
     kkt: Vec<f64>,
     kkt_index: Vec<usize>,
     p_map: Vec<usize>,
@@ -199,7 +197,6 @@ pub struct InteriorPoint {
     tmp2: Vec<f64>,
     rhs: Vec<f64>,
     sol: Vec<f64>,
-    res: Vec<f64>,
     iterations: u32,
     objective: f64,
     has_solution: bool,
@@ -389,8 +386,6 @@ impl InteriorPoint {
             n,
             m,
             settings,
-            kkt_colptr,
-            kkt_rowval,
             kkt: vec![0.0; nnz],
             kkt_index: (0..nnz).collect(),
             p_map,
@@ -429,7 +424,6 @@ impl InteriorPoint {
             tmp2: vec![0.0; cone_rows],
             rhs: vec![0.0; dim],
             sol: vec![0.0; dim],
-            res: vec![0.0; dim],
             iterations: 0,
             objective: f64::NAN,
             has_solution: false,
@@ -673,35 +667,13 @@ impl InteriorPoint {
         self.ldl.refactor().is_ok() && self.ldl.D.iter().all(|d| d.is_finite())
     }
 
-    /// Solve the reduced KKT system for `rhs` into `sol`, refining against the matrix
-    /// without its static regularization.
+    /// Solve the reduced KKT system for `rhs` into `sol`. (No refinement at this level: each
+    /// Newton direction is refined against the full system instead, which also corrects
+    /// the static regularization; refining here as well doubled the solves for the same
+    /// iterates.)
     fn kkt_solve(&mut self) {
-        let (n, delta) = (self.n, self.settings.regularization);
         self.sol.copy_from_slice(&self.rhs);
         self.ldl.solve(&mut self.sol);
-        for _ in 0..1 {
-            // res = rhs − K₀·sol, K₀ = KKT values without ±δ on the diagonal.
-            self.res.copy_from_slice(&self.rhs);
-            for c in 0..self.kkt_colptr.len() - 1 {
-                for k in self.kkt_colptr[c]..self.kkt_colptr[c + 1] {
-                    let r = self.kkt_rowval[k];
-                    let v = self.kkt[k];
-                    if r == c {
-                        let d = if c < n { v - delta } else { v + delta };
-                        self.res[c] -= d * self.sol[c];
-                    } else {
-                        self.res[r] -= v * self.sol[c];
-                        self.res[c] -= v * self.sol[r];
-                    }
-                }
-            }
-            let rn = inf_norm(&self.res);
-            if rn <= 1e-14 * (1.0 + inf_norm(&self.rhs)) {
-                break;
-            }
-            self.ldl.solve(&mut self.res);
-            self.sol.iter_mut().zip(&self.res).for_each(|(s, r)| *s += r);
-        }
     }
 
     /// Nesterov–Todd scaling of the current (s, z): W, W⁻¹, W⁻² per cone and λ = Wz.

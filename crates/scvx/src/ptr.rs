@@ -952,8 +952,8 @@ impl Ptr {
         (sum, max)
     }
 
-    /// Discretizes at the primal point `z = [X | U | S]` into `d` and returns its merit (see
-    /// [`merit`](Self::merit)) with the discretization's wall time in ms.
+    /// Propagates the primal point `z = [X | U | S]` (defects only, into `d`) and returns its
+    /// merit (see [`merit`](Self::merit)) with the propagation's wall time in ms.
     fn evaluate(
         &mut self,
         z: &[f64],
@@ -964,9 +964,19 @@ impl Ptr {
         let (u0, s0, vp0, _) = self.layout();
         let (x, u, s) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
         let t = Instant::now();
-        self.ocp.dynamics.discretize(x, u, s, &self.settings.discretization, &mut self.dws, d)?;
+        self.ocp.dynamics.defects(x, u, s, &self.settings.discretization, &mut self.dws, d)?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         Ok((self.merit(x, u, s, d, ev, prices), ms))
+    }
+
+    /// The full discretization (with the state-transition matrices) at `z` into `d`; its
+    /// wall time in ms.
+    fn linearize(&mut self, z: &[f64], d: &mut Discretization) -> Result<f64, DiscretizationError> {
+        let (u0, s0, vp0, _) = self.layout();
+        let (x, u, s) = (&z[..u0], &z[u0..s0], &z[s0..vp0]);
+        let t = Instant::now();
+        self.ocp.dynamics.discretize(x, u, s, &self.settings.discretization, &mut self.dws, d)?;
+        Ok(t.elapsed().as_secs_f64() * 1e3)
     }
 
     /// Merit `(J, t_f, max defect, max nodal violation)` of a trajectory.
@@ -1453,6 +1463,13 @@ impl Ptr {
                 *w = (*w * 2.0).min(set.lam_vc_max);
                 repriced = true;
             }
+        }
+        // Candidates were priced from their defects alone; the point that becomes the
+        // reference (or feeds the quasi-Newton pair) needs its transition matrices.
+        if accept || qn {
+            let ms = self.linearize(&st.zc, &mut st.dcand)?;
+            record.discretization_ms += ms;
+            st.timings.discretization_ms += ms;
         }
         if qn {
             self.update_hessian(st);

@@ -242,6 +242,30 @@ fn parallel_and_serial_discretization_agree_bitwise() {
     }
 }
 
+/// `defects` (no variational equations) gives `discretize`'s propagated states and defects
+/// bit for bit, with RK4 and with Dormand–Prince (whose step control looks at the state
+/// only), and leaves the matrices alone.
+#[test]
+fn defects_alone_equal_the_full_discretization_bitwise() {
+    let d = nonlinear();
+    let (n, mu) = (3, 2);
+    let nodes = 5;
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.41).sin()).collect();
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 0.77).cos()).collect();
+    let s: Vec<f64> = (0..nodes).map(|k| 1.2 + 0.3 * k as f64).collect();
+    for settings in [DiscretizationSettings::default(), dp(1e-9, 1e-11)] {
+        let mut ws = d.workspace();
+        let mut full = d.output(nodes);
+        d.discretize(&x, &u, &s, &settings, &mut ws, &mut full).unwrap();
+        let mut alone = d.output(nodes);
+        alone.a.fill(7.0);
+        d.defects(&x, &u, &s, &settings, &mut ws, &mut alone).unwrap();
+        assert_eq!(alone.x_prop, full.x_prop);
+        assert_eq!(alone.defect, full.defect);
+        assert!(alone.a.iter().all(|&v| v == 7.0), "matrices untouched");
+    }
+}
+
 fn dp(rtol: f64, atol: f64) -> DiscretizationSettings {
     DiscretizationSettings {
         integrator: armature_scvx::Integrator::DormandPrince { rtol, atol },
