@@ -504,6 +504,18 @@ pub fn settings(
     {
         return Err(src.error(v, "merit_sigma applies only with merit = \"lagrangian\""));
     }
+    if let Some(v) = &s.subproblem_solver {
+        p.subproblem.solver = match v.get_ref().as_str() {
+            "interior_point" => armature_scvx::SubproblemSolver::InteriorPoint,
+            "clarabel" => armature_scvx::SubproblemSolver::Clarabel,
+            other => {
+                return Err(src.error(
+                    v,
+                    format!("subproblem_solver '{other}': give \"interior_point\" or \"clarabel\""),
+                ));
+            }
+        };
+    }
     if let Some(dt) = &s.dense_dt {
         p.dense_dt = *dt.get_ref();
         if !(p.dense_dt.is_finite() && p.dense_dt > 0.0) {

@@ -380,6 +380,11 @@ pub struct SettingsSpec {
     #[serde(default)]
     #[schemars(with = "Option<f64>")]
     pub merit_sigma: Option<Spanned<f64>>,
+    /// Solver of the convex subproblems: `"interior_point"` (default: armature's
+    /// warm-started interior point, Clarabel as its fallback) or `"clarabel"`.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub subproblem_solver: Option<Spanned<String>>,
 }
 
 /// An error located in a file.

@@ -184,19 +184,16 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "table_height = 0.0   # m; the end effector stays above it\n[collision]\nlinks = [{ start = \"base\", end = \"elbow\", radius = -0.05 }]",
         "radius",
     );
-    bad("merit", "merit = \"lagrangian\"", "merit = \"newton\"", "merit 'newton'");
+    let solver = "subproblem_solver = \"interior_point\"";
+    bad("merit", solver, "merit = \"newton\"", "merit 'newton'");
     bad(
         "merit-sigma",
-        "quasi_newton = true",
-        "merit_sigma = 2.0\nquasi_newton = true",
+        solver,
+        "merit_sigma = 2.0\nquasi_newton = true\nmerit = \"lagrangian\"",
         "must lie in [0, 1]",
     );
-    bad(
-        "merit-sigma-alone",
-        "merit = \"lagrangian\"",
-        "merit_sigma = 0.2",
-        "merit_sigma applies only with merit",
-    );
+    bad("merit-sigma-alone", solver, "merit_sigma = 0.2", "merit_sigma applies only with merit");
+    bad("subproblem-solver", solver, "subproblem_solver = \"osqp\"", "subproblem_solver 'osqp'");
 }
 
 #[test]

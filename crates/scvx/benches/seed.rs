@@ -1,7 +1,7 @@
 //! The seed pick-and-place: one full solve (after problem construction), the same with the
-//! quasi-Newton model and the Lagrangian merit, the same with the native warm-started
-//! interior point for the subproblems, the collision variant with either solver, and one
-//! discretization of the guess.
+//! quasi-Newton model and the Lagrangian merit, the same with Clarabel (instead of the
+//! default native interior point) for every subproblem, the collision variant with either
+//! solver, and one discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -27,15 +27,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve_quasi_newton", |b| {
         b.iter(|| black_box(ptr_qn.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
-    let native = PtrSettings {
+    let clarabel = PtrSettings {
         subproblem: SubproblemSettings {
-            solver: SubproblemSolver::InteriorPoint,
+            solver: SubproblemSolver::Clarabel,
             ..SubproblemSettings::default()
         },
         ..PtrSettings::default()
     };
-    let mut ptr_n = Ptr::new(s.ocp.clone(), native.clone());
-    g.bench_function("solve_interior_point", |b| {
+    let mut ptr_n = Ptr::new(s.ocp.clone(), clarabel.clone());
+    g.bench_function("solve_clarabel", |b| {
         b.iter(|| black_box(ptr_n.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
     let sc = seed::build_collision();
@@ -43,8 +43,8 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve_collision", |b| {
         b.iter(|| black_box(ptr_c.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
-    let mut ptr_cn = Ptr::new(sc.ocp.clone(), native);
-    g.bench_function("solve_collision_interior_point", |b| {
+    let mut ptr_cn = Ptr::new(sc.ocp.clone(), clarabel);
+    g.bench_function("solve_collision_clarabel", |b| {
         b.iter(|| black_box(ptr_cn.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
     let d = &s.ocp.dynamics;
@@ -52,6 +52,9 @@ fn bench(c: &mut Criterion) {
     let mut out = d.output(seed::NODES);
     g.bench_function("discretize", |b| {
         b.iter(|| d.discretize(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
+    });
+    g.bench_function("defects", |b| {
+        b.iter(|| d.defects(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
     });
     g.finish();
 }

@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn] [ipm]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn] [ipm|clarabel]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -28,6 +28,10 @@ fn main() {
     // `-- ipm`: the native warm-started interior point for the subproblems.
     if std::env::args().any(|a| a == "ipm") {
         settings.subproblem.solver = armature_scvx::SubproblemSolver::InteriorPoint;
+    }
+    // `-- clarabel`: Clarabel for every subproblem.
+    if std::env::args().any(|a| a == "clarabel") {
+        settings.subproblem.solver = armature_scvx::SubproblemSolver::Clarabel;
     }
     let mut ptr = Ptr::new(s.ocp.clone(), settings);
     let built = t0.elapsed();

@@ -211,12 +211,15 @@ pub enum SubproblemSolver {
 /// place between iterations.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SubproblemSettings {
-    /// The solver. Default [`SubproblemSolver::Clarabel`]. The native
-    /// [`SubproblemSolver::InteriorPoint`] solves the seed problem's subproblems in fewer
-    /// iterations (warm starts) and less time, but its solutions differ from Clarabel's
-    /// within the tolerance (and its duals where they are not unique), which sends PTR down a
-    /// different path: on the CLI demo that path keeps improving the final time past the
-    /// 100-iteration cap instead of stopping at 50.
+    /// The solver. Default [`SubproblemSolver::InteriorPoint`]: on the seed problem it
+    /// solves the first-order subproblems in about half of Clarabel's time (warm starts:
+    /// 13 interior-point iterations per subproblem against 17–19) and allocates nothing.
+    /// Primal solutions agree with Clarabel's within the tolerance; duals agree where they
+    /// are unique. Where they are not (a CTCS integral pinned at 0 by both its initial
+    /// condition and its lower bound leaves its row's multiplier free along a ray), the
+    /// quasi-Newton model and the Lagrangian merit, which use the duals, can take a
+    /// different path than with Clarabel; first-order PTR with the exact-penalty merit
+    /// takes the same one.
     pub solver: SubproblemSolver,
     /// Absolute and relative duality-gap and feasibility tolerance. Default 1e-8 (Clarabel's).
     pub tolerance: f64,
@@ -234,7 +237,7 @@ pub struct SubproblemSettings {
 impl Default for SubproblemSettings {
     fn default() -> Self {
         SubproblemSettings {
-            solver: SubproblemSolver::Clarabel,
+            solver: SubproblemSolver::InteriorPoint,
             tolerance: 1e-8,
             refinement_tolerance: 1e-9,
             max_iterations: 200,

@@ -60,9 +60,12 @@ fn minimum_time_double_integrator_is_bang_bang() {
 #[test]
 fn adaptive_trust_region_never_resolves_an_identical_subproblem() {
     use armature_scvx::TrustRegionUpdate;
+    // A light initial trust-region weight: the first steps are long enough for the
+    // bilinear time dilation to spoil some of them, so rejections are exercised.
     let settings = PtrSettings {
         trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.7] },
         max_iterations: 200,
+        lam_tr: 1e-3,
         ..PtrSettings::default()
     };
     let r = solve_from_a_poor_guess(settings, "adaptive");

@@ -17,22 +17,24 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
     assert_meets_the_task(&s, &r);
 }
 
-/// The native warm-started interior point (Clarabel only as a fallback) meets the same task,
-/// to the same final time as Clarabel's first-order solve, in fewer interior-point
-/// iterations.
+/// The native warm-started interior point (the default; Clarabel only as a fallback) and
+/// Clarabel for every subproblem take the same path to the same final time (first-order
+/// PTR does not use the duals, where the two may differ), the native one in fewer
+/// interior-point iterations.
 #[test]
-fn native_interior_point_meets_the_task_in_fewer_subproblem_iterations() {
+fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
     let s = seed::build();
-    let native = PtrSettings {
+    let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    assert_meets_the_task(&s, &r);
+    let only_clarabel = PtrSettings {
         subproblem: SubproblemSettings {
-            solver: SubproblemSolver::InteriorPoint,
+            solver: SubproblemSolver::Clarabel,
             ..SubproblemSettings::default()
         },
         ..PtrSettings::default()
     };
-    let r = Ptr::new(s.ocp.clone(), native).solve(&s.x, &s.u, &s.s).unwrap();
-    assert_meets_the_task(&s, &r);
-    let clarabel = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    let clarabel = Ptr::new(s.ocp.clone(), only_clarabel).solve(&s.x, &s.u, &s.s).unwrap();
+    assert_eq!(r.history.len(), clarabel.history.len());
     assert!(
         (r.final_time - clarabel.final_time).abs() < 1e-3,
         "{} vs {}",
@@ -66,10 +68,11 @@ fn quasi_newton_reaches_a_lower_final_time() {
         first_order.final_time
     );
     // The first-order stop is held back by its trust region: its weight's gradient at the
-    // last step is several times the quasi-Newton one's.
+    // last step is well above the quasi-Newton one's (0.075 against 0.039 with the native
+    // subproblem solver, 0.026 with Clarabel's duals).
     let (g_fo, g_qn) =
         (first_order.history.last().unwrap().tr_gradient, r.history.last().unwrap().tr_gradient);
-    assert!(g_fo > 3.0 * g_qn, "trust-region gradient {g_fo} vs {g_qn}");
+    assert!(g_fo > 1.5 * g_qn, "trust-region gradient {g_fo} vs {g_qn}");
 }
 
 fn assert_meets_the_task(s: &seed::Seed, r: &PtrResult) {
