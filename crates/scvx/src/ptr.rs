@@ -227,8 +227,11 @@ pub struct SubproblemSettings {
     /// Default 1e-9: Clarabel's 1e-13 spends ~20 % of the seed solve refining directions
     /// far below what the tolerance above can use, for the same iterates.
     pub refinement_tolerance: f64,
-    /// Interior-point iteration cap. Default 200.
+    /// Clarabel's iteration cap. Default 200.
     pub max_iterations: u32,
+    /// The native interior point's iteration cap; when it is reached, Clarabel solves the
+    /// subproblem instead. Default 50 (the seed problem's subproblems take 6–21).
+    pub interior_point_max_iterations: u32,
     /// Clarabel's Ruiz equilibration. Default on. (The native solver works on the scaled
     /// data as given.)
     pub equilibrate: bool,
@@ -241,6 +244,7 @@ impl Default for SubproblemSettings {
             tolerance: 1e-8,
             refinement_tolerance: 1e-9,
             max_iterations: 200,
+            interior_point_max_iterations: 50,
             equilibrate: true,
         }
     }
@@ -250,7 +254,7 @@ impl SubproblemSettings {
     fn interior_point(&self) -> IpmSettings {
         IpmSettings {
             tolerance: self.tolerance,
-            max_iterations: self.max_iterations.min(IpmSettings::default().max_iterations),
+            max_iterations: self.interior_point_max_iterations,
             ..IpmSettings::default()
         }
     }
@@ -318,6 +322,9 @@ impl PtrSettings {
         }
         if self.subproblem.max_iterations == 0 {
             return bad("subproblem.max_iterations", "must be at least 1");
+        }
+        if self.subproblem.interior_point_max_iterations == 0 {
+            return bad("subproblem.interior_point_max_iterations", "must be at least 1");
         }
         if self.discretization.substeps == 0 {
             return bad("discretization.substeps", "must be at least 1");

@@ -46,6 +46,36 @@ fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
     assert!(per(&r) < 0.85 * per(&clarabel), "{} vs {} per subproblem", per(&r), per(&clarabel));
 }
 
+/// When the native interior point stops short (here: a cap of one iteration), Clarabel
+/// solves the subproblem instead, and the solve is the same as with Clarabel alone.
+#[test]
+fn clarabel_takes_over_when_the_native_solver_stops_short() {
+    let s = seed::build();
+    let capped = PtrSettings {
+        subproblem: SubproblemSettings {
+            interior_point_max_iterations: 1,
+            ..SubproblemSettings::default()
+        },
+        ..PtrSettings::default()
+    };
+    let r = Ptr::new(s.ocp.clone(), capped).solve(&s.x, &s.u, &s.s).unwrap();
+    let only_clarabel = PtrSettings {
+        subproblem: SubproblemSettings {
+            solver: SubproblemSolver::Clarabel,
+            ..SubproblemSettings::default()
+        },
+        ..PtrSettings::default()
+    };
+    let c = Ptr::new(s.ocp.clone(), only_clarabel).solve(&s.x, &s.u, &s.s).unwrap();
+    assert_eq!(r.status, PtrStatus::Converged);
+    assert_eq!(r.x, c.x);
+    assert_eq!(r.final_time, c.final_time);
+    // Each subproblem counts the native solver's one iteration and then Clarabel's.
+    for (a, b) in r.history.iter().zip(&c.history) {
+        assert_eq!(a.subproblem_iterations, b.subproblem_iterations + 1);
+    }
+}
+
 /// The quasi-Newton model with the Lagrangian merit meets the same task and goes further
 /// down the final time than the first-order default, whose trust region stops it early
 /// (a short step held back by a heavy λ_tr, not a stationary point).

@@ -5,7 +5,7 @@ mod double_integrator;
 
 use armature_scvx::{
     IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrSettings, PtrStatus,
-    TrustRegionUpdate,
+    SubproblemSettings, TrustRegionUpdate,
 };
 
 /// The published PTR (constant trust region, heavy virtual-control price), as in
@@ -123,6 +123,16 @@ fn bad_input_is_an_error_not_a_panic() {
         (
             PtrSettings { merit: Merit::Lagrangian { sigma: 1.5 }, ..PtrSettings::default() },
             "merit.sigma",
+        ),
+        (
+            PtrSettings {
+                subproblem: SubproblemSettings {
+                    interior_point_max_iterations: 0,
+                    ..SubproblemSettings::default()
+                },
+                ..PtrSettings::default()
+            },
+            "subproblem.interior_point_max_iterations",
         ),
     ] {
         assert!(settings.validate().is_err());
