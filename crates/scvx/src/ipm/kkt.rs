@@ -1,0 +1,275 @@
+//! The reduced KKT matrix of the interior point: its pattern (computed once from P's and
+//! A's), the list of products that fill it for a given scaling, and its LDLᵀ factorization.
+//!
+//! ```text
+//! K = [P + GᵀW⁻²G + δI    A₀ᵀ ]      (upper triangle stored, n + m₀ square)
+//!     [      A₀          −δI ]
+//! ```
+//!
+//! with A₀ the equality rows of A and G its cone rows. A nonnegative row i adds
+//! `(z_i/s_i)·a_iᵀa_i`; a second-order cone adds `(W⁻¹G_c)ᵀ(W⁻¹G_c)` over the columns its
+//! rows touch. QDLDL (Clarabel's) factors K with an approximate-minimum-degree ordering and
+//! the symbolic analysis done at construction, and with sign-aware dynamic regularization
+//! (+ for the primal block, − for the dual block), so K only has to be quasi-definite.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
+
+use super::scaling::Scaling;
+use super::{Cones, IpmError, dot};
+
+/// Row view of A: for each row, its (column, index into A's values) entries.
+#[derive(Debug, Clone)]
+pub(super) struct Rows {
+    ptr: Vec<usize>,
+    entries: Vec<(usize, usize)>,
+}
+
+impl Rows {
+    pub(super) fn new(n: usize, m: usize, a_colptr: &[usize], a_rowval: &[usize]) -> Rows {
+        let mut ptr = vec![0usize; m + 1];
+        for &r in a_rowval {
+            ptr[r + 1] += 1;
+        }
+        for r in 0..m {
+            ptr[r + 1] += ptr[r];
+        }
+        let mut fill = ptr.clone();
+        let mut entries = vec![(0usize, 0usize); a_rowval.len()];
+        for c in 0..n {
+            for p in a_colptr[c]..a_colptr[c + 1] {
+                let r = a_rowval[p];
+                entries[fill[r]] = (c, p);
+                fill[r] += 1;
+            }
+        }
+        Rows { ptr, entries }
+    }
+
+    /// Row r's (column, value index) entries.
+    pub(super) fn row(&self, r: usize) -> &[(usize, usize)] {
+        &self.entries[self.ptr[r]..self.ptr[r + 1]]
+    }
+
+    /// Nonzeros of A.
+    pub(super) fn nnz(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// `a_r · x` for row r of A with values `a`.
+    pub(super) fn dot(&self, r: usize, a: &[f64], x: &[f64]) -> f64 {
+        self.row(r).iter().map(|&(c, p)| a[p] * x[c]).sum()
+    }
+}
+
+/// A product `kkt[kkt] += weight_i · a[pa] · a[pb]` of a nonnegative row i.
+#[derive(Debug, Clone, Copy)]
+struct Term {
+    kkt: usize,
+    row: usize,
+    pa: usize,
+    pb: usize,
+}
+
+/// The reduced KKT matrix, its fill plan and its factorization. `rhs` in, `sol` out.
+pub(super) struct ReducedKkt {
+    n: usize,
+    values: Vec<f64>,
+    all: Vec<usize>,
+    p_map: Vec<usize>,
+    eq_map: Vec<(usize, usize)>,
+    diag: Vec<usize>,
+    terms: Vec<Term>,
+    /// Per cone: its columns (`cone_cols[k]..cone_cols[k + 1]` in a flat list), for each of
+    /// those columns and each cone row the value index in A or `usize::MAX`, and the KKT
+    /// entries (index, column a, column b) of each column pair.
+    cone_cols: Vec<usize>,
+    cone_g: Vec<usize>,
+    pair_ptr: Vec<usize>,
+    pairs: Vec<(usize, usize, usize)>,
+    /// W⁻¹G_c of the cone being assembled (d × columns, column-major).
+    gt: Vec<f64>,
+    ldl: QDLDLFactorisation<f64>,
+    pub(super) rhs: Vec<f64>,
+    pub(super) sol: Vec<f64>,
+}
+
+impl ReducedKkt {
+    /// The pattern of K for P's pattern (upper triangle) and A's rows.
+    pub(super) fn analyse(
+        n: usize,
+        (p_colptr, p_rowval): (&[usize], &[usize]),
+        rows: &Rows,
+        cones: &Cones,
+    ) -> Result<ReducedKkt, IpmError> {
+        let m0 = cones.zero;
+        let dim = n + m0;
+        let mut entries: Vec<(usize, usize)> = (0..dim).map(|c| (c, c)).collect();
+        for c in 0..n {
+            for &r in &p_rowval[p_colptr[c]..p_colptr[c + 1]] {
+                if r > c {
+                    return Err(IpmError::Pattern("P must be upper triangular"));
+                }
+                entries.push((r, c));
+            }
+        }
+        for r in 0..m0 {
+            entries.extend(rows.row(r).iter().map(|&(c, _)| (c, n + r)));
+        }
+        // Nonnegative rows: every pair of a row's entries.
+        let mut raw_terms = Vec::new();
+        for r in m0..m0 + cones.nonneg {
+            for &(ca, pa) in rows.row(r) {
+                for &(cb, pb) in rows.row(r) {
+                    if ca < cb || pa == pb {
+                        raw_terms.push((ca, cb, r - m0, pa, pb));
+                    }
+                }
+            }
+        }
+        // Cones: every pair of the columns their rows touch.
+        let (mut cone_cols, mut cone_g, mut pair_ptr) = (vec![0], Vec::new(), vec![0]);
+        let (mut pair_cols, mut max_gt) = (Vec::new(), 0);
+        let mut r0 = m0 + cones.nonneg;
+        for &d in &cones.soc {
+            let mut cols: Vec<usize> =
+                (r0..r0 + d).flat_map(|r| rows.row(r).iter().map(|e| e.0)).collect();
+            cols.sort_unstable();
+            cols.dedup();
+            for &c in &cols {
+                for r in r0..r0 + d {
+                    let nz = rows.row(r).iter().find(|e| e.0 == c).map_or(usize::MAX, |e| e.1);
+                    cone_g.push(nz);
+                }
+            }
+            for ja in 0..cols.len() {
+                for jb in ja..cols.len() {
+                    pair_cols.push((cols[ja], cols[jb], ja, jb));
+                }
+            }
+            pair_ptr.push(pair_cols.len());
+            max_gt = max_gt.max(d * cols.len());
+            cone_cols.push(cone_cols.last().copied().unwrap_or(0) + cols.len());
+            r0 += d;
+        }
+        entries.extend(raw_terms.iter().map(|t| (t.0, t.1)));
+        entries.extend(pair_cols.iter().map(|t| (t.0, t.1)));
+        entries.sort_unstable_by_key(|&(r, c)| (c, r));
+        entries.dedup();
+        let mut colptr = vec![0usize; dim + 1];
+        for &(_, c) in &entries {
+            colptr[c + 1] += 1;
+        }
+        for c in 0..dim {
+            colptr[c + 1] += colptr[c];
+        }
+        let rowval: Vec<usize> = entries.iter().map(|e| e.0).collect();
+        let find = |r: usize, c: usize| {
+            let lo = colptr[c];
+            lo + rowval[lo..colptr[c + 1]].binary_search(&r).expect("in the pattern")
+        };
+        let diag = (0..dim).map(|c| find(c, c)).collect();
+        let mut p_map = Vec::with_capacity(p_rowval.len());
+        for c in 0..n {
+            p_map.extend(p_rowval[p_colptr[c]..p_colptr[c + 1]].iter().map(|&r| find(r, c)));
+        }
+        let mut eq_map = Vec::new();
+        for r in 0..m0 {
+            eq_map.extend(rows.row(r).iter().map(|&(c, p)| (p, find(c, n + r))));
+        }
+        let terms = raw_terms
+            .iter()
+            .map(|&(ca, cb, row, pa, pb)| Term { kkt: find(ca, cb), row, pa, pb })
+            .collect();
+        let pairs = pair_cols.iter().map(|&(ca, cb, ja, jb)| (find(ca, cb), ja, jb)).collect();
+        let nnz = rowval.len();
+        let mut signs = vec![1i8; dim];
+        signs[n..].fill(-1);
+        let settings = QDLDLSettings {
+            logical: true,
+            Dsigns: Some(signs),
+            regularize_enable: true,
+            regularize_eps: 1e-13,
+            regularize_delta: 2e-7,
+            ..QDLDLSettings::default()
+        };
+        let pattern = CscMatrix::new(dim, dim, colptr, rowval, vec![1.0; nnz]);
+        let ldl = QDLDLFactorisation::new(&pattern, Some(settings))
+            .map_err(|_| IpmError::Pattern("the KKT pattern cannot be factored"))?;
+        Ok(ReducedKkt {
+            n,
+            values: vec![0.0; nnz],
+            all: (0..nnz).collect(),
+            p_map,
+            eq_map,
+            diag,
+            terms,
+            cone_cols,
+            cone_g,
+            pair_ptr,
+            pairs,
+            gt: vec![0.0; max_gt],
+            ldl,
+            rhs: vec![0.0; dim],
+            sol: vec![0.0; dim],
+        })
+    }
+
+    /// Nonzeros of K (upper triangle) and of its factor L.
+    pub(super) fn nonzeros(&self) -> (usize, usize) {
+        (self.values.len(), self.ldl.nnzL())
+    }
+
+    /// Values of P (upper), A and the scaling into K, then its factorization; false if that
+    /// fails or is not finite.
+    pub(super) fn factor(
+        &mut self,
+        p: &[f64],
+        a: &[f64],
+        scaling: &Scaling,
+        cones: &Cones,
+        delta: f64,
+    ) -> bool {
+        let kkt = &mut self.values;
+        kkt.fill(0.0);
+        for (k, &i) in self.p_map.iter().enumerate() {
+            kkt[i] += p[k];
+        }
+        for &(pa, i) in &self.eq_map {
+            kkt[i] += a[pa];
+        }
+        for t in &self.terms {
+            kkt[t.kkt] += scaling.weights[t.row] * a[t.pa] * a[t.pb];
+        }
+        for (k, &d) in cones.soc.iter().enumerate() {
+            let (c0, c1) = (self.cone_cols[k], self.cone_cols[k + 1]);
+            let winv = scaling.winv_block(k);
+            for j in 0..c1 - c0 {
+                let g = &self.cone_g[(c0 + j) * d..(c0 + j + 1) * d];
+                for kk in 0..d {
+                    let mut acc = 0.0;
+                    for (i, &nz) in g.iter().enumerate() {
+                        if nz != usize::MAX {
+                            acc += winv[kk * d + i] * a[nz];
+                        }
+                    }
+                    self.gt[j * d + kk] = acc;
+                }
+            }
+            for &(idx, ja, jb) in &self.pairs[self.pair_ptr[k]..self.pair_ptr[k + 1]] {
+                kkt[idx] += dot(&self.gt[ja * d..ja * d + d], &self.gt[jb * d..jb * d + d]);
+            }
+        }
+        for (c, &i) in self.diag.iter().enumerate() {
+            kkt[i] += if c < self.n { delta } else { -delta };
+        }
+        self.ldl.update_values(&self.all, kkt);
+        self.ldl.refactor().is_ok() && self.ldl.D.iter().all(|d| d.is_finite())
+    }
+
+    /// `sol = K⁻¹ rhs` with the last factorization.
+    pub(super) fn solve(&mut self) {
+        self.sol.copy_from_slice(&self.rhs);
+        self.ldl.solve(&mut self.sol);
+    }
+}
