@@ -58,7 +58,12 @@ impl Rows {
 
     /// `a_r · x` for row r of A with values `a`.
     pub(super) fn dot(&self, r: usize, a: &[f64], x: &[f64]) -> f64 {
-        self.row(r).iter().map(|&(c, p)| a[p] * x[c]).sum()
+        self.dot_from(0.0, r, a, x)
+    }
+
+    /// `init + a_r · x`, summed from `init`.
+    pub(super) fn dot_from(&self, init: f64, r: usize, a: &[f64], x: &[f64]) -> f64 {
+        self.row(r).iter().fold(init, |acc, &(c, p)| acc + a[p] * x[c])
     }
 }
 

@@ -379,7 +379,8 @@ impl InteriorPoint {
             // Corrector: u = λ⁻¹∘(−λ∘λ + σμe − (W⁻¹Δs_a)∘(WΔz_a)).
             self.scaling.apply_winv(&self.ds[m0..], &mut self.tmp);
             self.scaling.apply_w(&self.dz[m0..], &mut self.tmp2);
-            self.scaling.corrector(sigma * res.gap / degree, &self.tmp, &self.tmp2, &mut self.u);
+            let mu = res.gap / degree;
+            self.scaling.corrector(sigma * mu, &self.tmp, &self.tmp2, &mut self.u);
             self.direction(p, a);
             let alpha = (0.99 * self.step_to_boundary()).min(1.0);
             for (x, d) in self.x.iter_mut().zip(&self.dx) {
@@ -426,7 +427,7 @@ impl InteriorPoint {
         self.z[..m0].copy_from_slice(&self.kkt.sol[n..]);
         self.s.fill(0.0);
         for r in m0..self.m {
-            let g = self.rows.dot(r, a, &self.x) - b[r];
+            let g = self.rows.dot_from(-b[r], r, a, &self.x);
             self.z[r] = g;
             self.s[r] = -g;
         }
