@@ -149,3 +149,87 @@ fn warm_start_saves_iterations_and_reset_forgets_it() {
     }
     assert!(saved > 0, "warm starts saved {saved} iterations over 20 problems");
 }
+
+fn solve_dense(
+    n: usize,
+    p: &[f64],
+    q: &[f64],
+    a: &[f64],
+    b: &[f64],
+    cones: Cones,
+) -> (IpmStatus, Vec<f64>, Vec<f64>) {
+    let m = b.len();
+    let (pc, prw, pv) = csc(n, n, p, true);
+    let (ac, ar, av) = csc(m, n, a, false);
+    let mut ipm =
+        InteriorPoint::new(n, (&pc, &prw), m, (&ac, &ar), cones, IpmSettings::default()).unwrap();
+    let status = ipm.solve(&pv, q, &av, b);
+    (status, ipm.x().to_vec(), ipm.z().to_vec())
+}
+
+/// Equality rows only (no cone rows at all): one Newton step on the KKT system.
+#[test]
+fn an_equality_constrained_qp_is_solved() {
+    // minimize ½(x₀² + x₁²)  subject to  x₀ + x₁ = 1  →  x = (½, ½), z = −½.
+    let (status, x, z) = solve_dense(
+        2,
+        &[1.0, 0.0, 0.0, 1.0],
+        &[0.0, 0.0],
+        &[1.0, 1.0],
+        &[1.0],
+        Cones { zero: 1, nonneg: 0, soc: vec![] },
+    );
+    assert_eq!(status, IpmStatus::Solved);
+    assert!((x[0] - 0.5).abs() < 1e-8 && (x[1] - 0.5).abs() < 1e-8, "{x:?}");
+    assert!((z[0] + 0.5).abs() < 1e-8, "{z:?}");
+}
+
+/// A linear program (P = 0) with its optimum at a vertex.
+#[test]
+fn a_linear_program_reaches_its_vertex() {
+    // minimize −x₀ − x₁  subject to  x₀ + 2x₁ ≤ 4,  3x₀ + x₁ ≤ 6,  x ≥ 0  →  x = (1.6, 1.2).
+    let (status, x, _) = solve_dense(
+        2,
+        &[0.0; 4],
+        &[-1.0, -1.0],
+        // column-major 4×2: rows [1 2; 3 1; −1 0; 0 −1]
+        &[1.0, 3.0, -1.0, 0.0, 2.0, 1.0, 0.0, -1.0],
+        &[4.0, 6.0, 0.0, 0.0],
+        Cones { zero: 0, nonneg: 4, soc: vec![] },
+    );
+    assert_eq!(status, IpmStatus::Solved);
+    assert!((x[0] - 1.6).abs() < 1e-6 && (x[1] - 1.2).abs() < 1e-6, "{x:?}");
+}
+
+/// The smallest point of a second-order cone's slice: minimize t subject to ‖(1, 2)‖ ≤ t,
+/// written as s = (t, 1, 2) ∈ 𝒬³ → t = √5.
+#[test]
+fn a_second_order_cone_program_reaches_the_norm() {
+    // s = b − Ax with x = t: A = (−1, 0, 0)ᵀ, b = (0, 1, 2).
+    let (status, x, _) = solve_dense(
+        1,
+        &[0.0],
+        &[1.0],
+        &[-1.0, 0.0, 0.0],
+        &[0.0, 1.0, 2.0],
+        Cones { zero: 0, nonneg: 0, soc: vec![3] },
+    );
+    assert_eq!(status, IpmStatus::Solved);
+    assert!((x[0] - 5f64.sqrt()).abs() < 1e-7, "{x:?}");
+}
+
+/// An infeasible problem is not one this solver is built for (PTR's subproblems are
+/// feasible by construction); it must stop with a status, not loop or panic.
+#[test]
+fn an_infeasible_problem_ends_with_a_status() {
+    // x ≤ −1 and x ≥ 1.
+    let (status, _, _) = solve_dense(
+        1,
+        &[1.0],
+        &[0.0],
+        &[1.0, -1.0],
+        &[-1.0, -1.0],
+        Cones { zero: 0, nonneg: 2, soc: vec![] },
+    );
+    assert_ne!(status, IpmStatus::Solved);
+}

@@ -375,7 +375,9 @@ impl InteriorPoint {
                 gap_aff +=
                     (self.s[r] + alpha_aff * self.ds[r]) * (self.z[r] + alpha_aff * self.dz[r]);
             }
-            let sigma = (gap_aff / res.gap).clamp(0.0, 1.0).powi(3);
+            // (No cone rows: no gap and no centring.)
+            let sigma =
+                if res.gap > 0.0 { (gap_aff / res.gap).clamp(0.0, 1.0).powi(3) } else { 0.0 };
             // Corrector: u = λ⁻¹∘(−λ∘λ + σμe − (W⁻¹Δs_a)∘(WΔz_a)).
             self.scaling.apply_winv(&self.ds[m0..], &mut self.tmp);
             self.scaling.apply_w(&self.dz[m0..], &mut self.tmp2);
