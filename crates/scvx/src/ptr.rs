@@ -885,7 +885,21 @@ impl Ptr {
             cone_rows: self.socs.iter().sum(),
             nonzeros: self.a_rowval.len(),
             hessian_nonzeros: self.p_rowval.len(),
+            reduced_kkt_nonzeros: self.interior_point().ok().map(|ipm| ipm.kkt_nonzeros()),
         }
+    }
+
+    /// The native interior point for this subproblem pattern.
+    fn interior_point(&self) -> Result<InteriorPoint, crate::ipm::IpmError> {
+        let cones = Cones { zero: self.n_zero, nonneg: self.n_nonneg, soc: self.socs.clone() };
+        InteriorPoint::new(
+            self.n_vars,
+            (&self.p_colptr, &self.p_rowval),
+            self.b.len(),
+            (&self.a_colptr, &self.a_rowval),
+            cones,
+            self.settings.subproblem.interior_point(),
+        )
     }
 
     /// The problem.
@@ -1536,16 +1550,7 @@ impl Ptr {
     ) -> Result<(), PtrStatus> {
         let nv = self.n_vars;
         if set.solver == SubproblemSolver::InteriorPoint && st.ipm.is_none() && !st.ipm_unusable {
-            let cones = Cones { zero: self.n_zero, nonneg: self.n_nonneg, soc: self.socs.clone() };
-            st.ipm = InteriorPoint::new(
-                nv,
-                (&self.p_colptr, &self.p_rowval),
-                self.b.len(),
-                (&self.a_colptr, &self.a_rowval),
-                cones,
-                set.interior_point(),
-            )
-            .ok();
+            st.ipm = self.interior_point().ok();
             st.ipm_unusable = st.ipm.is_none();
         }
         if let (SubproblemSolver::InteriorPoint, Some(ipm)) = (set.solver, st.ipm.as_mut()) {
@@ -1671,6 +1676,10 @@ pub struct SubproblemDimensions {
     /// Structural nonzeros of the upper triangle of `P`: the trust-region diagonal plus,
     /// with [`PtrSettings::quasi_newton`], the Hessian blocks.
     pub hessian_nonzeros: usize,
+    /// Nonzeros of the native interior point's reduced KKT matrix (upper triangle) and of
+    /// its LDLᵀ factor (after the fill-reducing ordering): what each of its iterations
+    /// factors. `None` if the pattern cannot be analysed (Clarabel then solves everything).
+    pub reduced_kkt_nonzeros: Option<(usize, usize)>,
 }
 
 /// Powell's damped BFGS update of the symmetric positive-definite `h` (`d×d`, row-major)

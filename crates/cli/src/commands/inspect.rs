@@ -124,5 +124,12 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
         dims.nonzeros,
         dims.hessian_nonzeros
     );
+    if let Some((k, l)) = dims.reduced_kkt_nonzeros {
+        let _ = writeln!(
+            s,
+            "interior point: reduced KKT matrix {} square, {k} nonzeros (upper triangle), {l} in its LDLᵀ factor",
+            dims.variables + dims.equality_rows
+        );
+    }
     out.write_all(s.as_bytes()).map_err(|e| CliError { message: e.to_string(), code: exit::IO })
 }
