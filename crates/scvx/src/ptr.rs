@@ -1327,24 +1327,8 @@ impl Ptr {
         for (i, qi) in st.q.iter_mut().enumerate().skip(vp0) {
             *qi = if i < self.vb0 { st.lam_vc[(i - vp0) % n] } else { st.lam_vb[i - self.vb0] };
         }
-        st.pvals.fill(0.0);
-        for (c, w) in st.inv_s2.iter().enumerate() {
-            st.pvals[self.p_diag[c]] = 2.0 * st.lam_tr * w;
-        }
         let qn = set.quasi_newton;
-        if qn {
-            for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
-                if !*ready {
-                    continue;
-                }
-                let d = el.cols.len();
-                for a in 0..d {
-                    for b in a..d {
-                        st.pvals[el.pidx[a * d + b]] += h[a * d + b];
-                    }
-                }
-            }
-        }
+        self.fill_p(st, qn);
         let mut record = Iteration {
             iteration: it,
             accepted: false,
@@ -1365,7 +1349,17 @@ impl Ptr {
             status: None,
         };
         let t_sub = Instant::now();
-        let outcome = self.solve_subproblem(st, &set.subproblem, &mut record);
+        let mut outcome = self.solve_subproblem(st, &set.subproblem, &mut record);
+        if outcome.is_err() && qn && st.hess_ready.iter().any(|&r| r) {
+            // The quasi-Newton blocks made the subproblem too hard for both solvers (a badly
+            // conditioned BFGS block): forget them and solve this iteration first-order.
+            st.hess_ready.fill(false);
+            self.fill_p(st, false);
+            if let Some(ipm) = st.ipm.as_mut() {
+                ipm.reset();
+            }
+            outcome = self.solve_subproblem(st, &set.subproblem, &mut record);
+        }
         record.subproblem_ms = t_sub.elapsed().as_secs_f64() * 1e3;
         st.timings.subproblem_ms += record.subproblem_ms;
         if let Err(status) = outcome {
@@ -1540,6 +1534,29 @@ impl Ptr {
     /// Damped BFGS update (Powell) of each element's Hessian approximation from the last
     /// evaluated point `st.zc` (with `st.dcand` and `st.ev` at it) and the reference, with
     /// the last subproblem's duals: `y_e = (A_e(z) − A_e(z̄))ᵀ λ`.
+    /// `P`'s values: the trust-region diagonal, plus the quasi-Newton blocks that are ready
+    /// when `qn`.
+    fn fill_p(&self, st: &mut Iterate, qn: bool) {
+        st.pvals.fill(0.0);
+        for (c, w) in st.inv_s2.iter().enumerate() {
+            st.pvals[self.p_diag[c]] = 2.0 * st.lam_tr * w;
+        }
+        if !qn {
+            return;
+        }
+        for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
+            if !*ready {
+                continue;
+            }
+            let d = el.cols.len();
+            for a in 0..d {
+                for b in a..d {
+                    st.pvals[el.pidx[a * d + b]] += h[a * d + b];
+                }
+            }
+        }
+    }
+
     /// Solve the assembled subproblem into `st.sol_x`/`st.sol_z`: the native interior point
     /// (warm-started) when chosen, Clarabel otherwise or when the native solve fails.
     fn solve_subproblem(
