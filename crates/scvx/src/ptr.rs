@@ -1,4 +1,5 @@
-//! The penalized-trust-region (PTR) loop with Clarabel subproblems.
+//! The penalized-trust-region (PTR) loop; its convex subproblems go to the native
+//! interior point ([`crate::ipm`], warm-started) with Clarabel as fallback and option.
 //!
 //! # Subproblem
 //! Variables `z = [X (N·n) | U (N·m) | S (N) | ν⁺ ((N−1)·n) | ν⁻ ((N−1)·n)]`, around the
@@ -17,10 +18,11 @@
 //! may move as far, relative to its range, as an acceleration in [−1, 1].
 //!
 //! The constraint matrix's pattern is built once with a value source per nonzero; each
-//! iteration refills the values and updates Clarabel in place (presolve off).
+//! iteration refills the values, which the native interior point factors in its fixed
+//! pattern (and Clarabel, when used, takes as an in-place update with presolve off).
 //!
 //! The subproblem is solved in deviation form (unknowns `Δz = z − z̄`), so its objective
-//! carries no `λ_tr‖z̄‖²` offset that would swamp Clarabel's relative tolerances at large λ_tr.
+//! carries no `λ_tr‖z̄‖²` offset that would swamp the solver's relative tolerances at large λ_tr.
 //! Nodal constraints are either entrywise inequalities (linearised, with a virtual buffer
 //! each) or balls `‖g‖ ≤ r` kept as second-order cones around the linearised `g`.
 //!
@@ -223,8 +225,8 @@ pub struct SubproblemSettings {
     pub solver: SubproblemSolver,
     /// Absolute and relative duality-gap and feasibility tolerance. Default 1e-8 (Clarabel's).
     pub tolerance: f64,
-    /// Tolerance (absolute and relative) of the iterative refinement of each KKT solve.
-    /// Default 1e-9: Clarabel's 1e-13 spends ~20 % of the seed solve refining directions
+    /// Tolerance (absolute and relative) of Clarabel's iterative refinement of each KKT
+    /// solve. Default 1e-9: Clarabel's own 1e-13 spends ~20 % of the seed solve refining directions
     /// far below what the tolerance above can use, for the same iterates.
     pub refinement_tolerance: f64,
     /// Clarabel's iteration cap. Default 200.
