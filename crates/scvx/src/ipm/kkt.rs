@@ -8,13 +8,11 @@
 //!
 //! with A₀ the equality rows of A and G its cone rows. A nonnegative row i adds
 //! `(z_i/s_i)·a_iᵀa_i`; a second-order cone adds `(W⁻¹G_c)ᵀ(W⁻¹G_c)` over the columns its
-//! rows touch. QDLDL (Clarabel's) factors K with an approximate-minimum-degree ordering and
-//! the symbolic analysis done at construction, and with sign-aware dynamic regularization
-//! (+ for the primal block, − for the dual block), so K only has to be quasi-definite.
+//! rows touch. K is factored as LDLᵀ ([`Ldl`]: QDLDL's ordering and symbolic analysis, done
+//! once) with sign-aware dynamic regularization (+ for the primal block, − for the dual
+//! block), so K only has to be quasi-definite.
 
-use clarabel::algebra::CscMatrix;
-use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
-
+use super::ldl::Ldl;
 use super::scaling::Scaling;
 use super::{Cones, IpmError, dot};
 
@@ -80,7 +78,6 @@ struct Term {
 pub(super) struct ReducedKkt {
     n: usize,
     values: Vec<f64>,
-    all: Vec<usize>,
     p_map: Vec<usize>,
     eq_map: Vec<(usize, usize)>,
     diag: Vec<usize>,
@@ -94,7 +91,7 @@ pub(super) struct ReducedKkt {
     pairs: Vec<(usize, usize, usize)>,
     /// W⁻¹G_c of the cone being assembled (d × columns, column-major).
     gt: Vec<f64>,
-    ldl: QDLDLFactorisation<f64>,
+    ldl: Ldl,
     pub(super) rhs: Vec<f64>,
     pub(super) sol: Vec<f64>,
 }
@@ -190,21 +187,11 @@ impl ReducedKkt {
         let nnz = rowval.len();
         let mut signs = vec![1i8; dim];
         signs[n..].fill(-1);
-        let settings = QDLDLSettings {
-            logical: true,
-            Dsigns: Some(signs),
-            regularize_enable: true,
-            regularize_eps: 1e-13,
-            regularize_delta: 2e-7,
-            ..QDLDLSettings::default()
-        };
-        let pattern = CscMatrix::new(dim, dim, colptr, rowval, vec![1.0; nnz]);
-        let ldl = QDLDLFactorisation::new(&pattern, Some(settings))
-            .map_err(|_| IpmError::Pattern("the KKT pattern cannot be factored"))?;
+        let ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7))
+            .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
         Ok(ReducedKkt {
             n,
             values: vec![0.0; nnz],
-            all: (0..nnz).collect(),
             p_map,
             eq_map,
             diag,
@@ -222,7 +209,7 @@ impl ReducedKkt {
 
     /// Nonzeros of K (upper triangle) and of its factor L.
     pub(super) fn nonzeros(&self) -> (usize, usize) {
-        (self.values.len(), self.ldl.nnzL())
+        (self.values.len(), self.ldl.nnz_l())
     }
 
     /// Values of P (upper), A and the scaling into K, then its factorization; false if that
@@ -268,8 +255,7 @@ impl ReducedKkt {
         for (c, &i) in self.diag.iter().enumerate() {
             kkt[i] += if c < self.n { delta } else { -delta };
         }
-        self.ldl.update_values(&self.all, kkt);
-        self.ldl.refactor().is_ok() && self.ldl.D.iter().all(|d| d.is_finite())
+        self.ldl.factor(kkt)
     }
 
     /// `sol = K⁻¹ rhs` with the last factorization.

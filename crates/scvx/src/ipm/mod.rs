@@ -40,6 +40,7 @@
 //! or [`IpmStatus::NumericalError`] instead, and the caller falls back to Clarabel.
 
 mod kkt;
+mod ldl;
 mod scaling;
 
 use kkt::{ReducedKkt, Rows};

@@ -1,0 +1,253 @@
+//! Numeric LDLᵀ factorization of a quasi-definite matrix on a pattern analysed once.
+//!
+//! The symbolic analysis — the approximate-minimum-degree ordering and the pattern of L — is
+//! QDLDL's (Clarabel's), run once in logical mode. QDLDL's numeric factorization then walks
+//! the elimination tree again for every row of every factorization to find that row's
+//! pattern; here the row patterns of L, and where each entry lands in its column, are
+//! computed once, so a factorization is only the up-looking arithmetic:
+//!
+//! ```text
+//! for each row k:  y = A(0:k, k);  for j in pattern(L(k, :)) ascending:
+//!                      y_i −= L(i, j)·y_j  for the rows i < k of column j
+//!                      L(k, j) = y_j / D_j;   D_k −= y_j·L(k, j)
+//! ```
+//!
+//! with QDLDL's sign-aware dynamic regularization: a pivot whose sign disagrees with the
+//! expected one (or is within ε of zero) is replaced by ±δ.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
+
+/// The factorization of `P Kₚ Pᵀ = L D Lᵀ` for one pattern of K (upper triangle).
+#[derive(Debug, Clone)]
+pub(super) struct Ldl {
+    /// `perm[new] = old`.
+    perm: Vec<usize>,
+    /// Permuted upper triangle of K by column: (row, index into the caller's values).
+    a_colptr: Vec<usize>,
+    a_entries: Vec<(usize, usize)>,
+    /// Strictly lower L, column-compressed, rows ascending in each column.
+    l_colptr: Vec<usize>,
+    l_row: Vec<usize>,
+    lx: Vec<f64>,
+    /// Row pattern of L: for row k, (column j, position of L(k, j) in `lx`), j ascending.
+    r_ptr: Vec<usize>,
+    r_entries: Vec<(usize, usize)>,
+    d: Vec<f64>,
+    dinv: Vec<f64>,
+    signs: Vec<f64>,
+    eps: f64,
+    delta: f64,
+    y: Vec<f64>,
+    work: Vec<f64>,
+}
+
+impl Ldl {
+    /// Analyse the upper-triangular pattern `(colptr, rowval)` of an n × n matrix whose
+    /// pivots should have the given signs (+1 / −1). `None` if QDLDL rejects the pattern.
+    pub(super) fn analyse(
+        colptr: &[usize],
+        rowval: &[usize],
+        signs: &[i8],
+        (eps, delta): (f64, f64),
+    ) -> Option<Ldl> {
+        let n = colptr.len() - 1;
+        let nnz = rowval.len();
+        let settings = QDLDLSettings { logical: true, ..QDLDLSettings::default() };
+        let pattern = CscMatrix::new(n, n, colptr.to_vec(), rowval.to_vec(), vec![1.0; nnz]);
+        let symbolic = QDLDLFactorisation::new(&pattern, Some(settings)).ok()?;
+        let perm = symbolic.perm.clone();
+        let mut iperm = vec![0; n];
+        for (new, &old) in perm.iter().enumerate() {
+            iperm[old] = new;
+        }
+        // K's entries in the permuted upper triangle.
+        let mut entries: Vec<(usize, usize, usize)> = Vec::with_capacity(nnz);
+        for c in 0..n {
+            for (k, &r) in rowval.iter().enumerate().take(colptr[c + 1]).skip(colptr[c]) {
+                let (a, b) = (iperm[r], iperm[c]);
+                entries.push((a.min(b), a.max(b), k));
+            }
+        }
+        entries.sort_unstable_by_key(|&(r, c, _)| (c, r));
+        let mut a_colptr = vec![0; n + 1];
+        for &(_, c, _) in &entries {
+            a_colptr[c + 1] += 1;
+        }
+        for c in 0..n {
+            a_colptr[c + 1] += a_colptr[c];
+        }
+        let a_entries = entries.iter().map(|&(r, _, k)| (r, k)).collect();
+        // L's pattern, and its transpose with positions.
+        let l_colptr = symbolic.L.colptr.clone();
+        let l_row = symbolic.L.rowval.clone();
+        let mut r_ptr = vec![0; n + 1];
+        for &r in &l_row {
+            r_ptr[r + 1] += 1;
+        }
+        for r in 0..n {
+            r_ptr[r + 1] += r_ptr[r];
+        }
+        let mut fill = r_ptr.clone();
+        let mut r_entries = vec![(0, 0); l_row.len()];
+        for j in 0..n {
+            for (p, &r) in l_row.iter().enumerate().take(l_colptr[j + 1]).skip(l_colptr[j]) {
+                r_entries[fill[r]] = (j, p);
+                fill[r] += 1;
+            }
+        }
+        Some(Ldl {
+            perm,
+            a_colptr,
+            a_entries,
+            lx: vec![0.0; l_row.len()],
+            l_colptr,
+            l_row,
+            r_ptr,
+            r_entries,
+            d: vec![0.0; n],
+            dinv: vec![0.0; n],
+            signs: perm_signs(signs, &symbolic.perm),
+            eps,
+            delta,
+            y: vec![0.0; n],
+            work: vec![0.0; n],
+        })
+    }
+
+    /// Nonzeros of L (strictly lower).
+    pub(super) fn nnz_l(&self) -> usize {
+        self.l_row.len()
+    }
+
+    /// Factor the matrix with these values (indexed like the pattern given to
+    /// [`analyse`](Self::analyse)); false if a pivot is not finite.
+    pub(super) fn factor(&mut self, values: &[f64]) -> bool {
+        let n = self.d.len();
+        for k in 0..n {
+            let mut dk = 0.0;
+            for &(i, src) in &self.a_entries[self.a_colptr[k]..self.a_colptr[k + 1]] {
+                if i == k {
+                    dk += values[src];
+                } else {
+                    self.y[i] += values[src];
+                }
+            }
+            for &(j, pos) in &self.r_entries[self.r_ptr[k]..self.r_ptr[k + 1]] {
+                let yj = self.y[j];
+                self.y[j] = 0.0;
+                let start = self.l_colptr[j];
+                for (&i, &lij) in self.l_row[start..pos].iter().zip(&self.lx[start..pos]) {
+                    self.y[i] -= lij * yj;
+                }
+                let lkj = yj * self.dinv[j];
+                self.lx[pos] = lkj;
+                dk -= yj * lkj;
+            }
+            let sign = self.signs[k];
+            if dk * sign <= self.eps {
+                dk = sign * self.delta;
+            }
+            if !dk.is_finite() {
+                return false;
+            }
+            self.d[k] = dk;
+            self.dinv[k] = 1.0 / dk;
+        }
+        true
+    }
+
+    /// `b ← K⁻¹ b` with the last factorization.
+    pub(super) fn solve(&mut self, b: &mut [f64]) {
+        let n = self.d.len();
+        for (w, &p) in self.work.iter_mut().zip(&self.perm) {
+            *w = b[p];
+        }
+        for j in 0..n {
+            let wj = self.work[j];
+            let range = self.l_colptr[j]..self.l_colptr[j + 1];
+            for (&i, &l) in self.l_row[range.clone()].iter().zip(&self.lx[range]) {
+                self.work[i] -= l * wj;
+            }
+        }
+        for (w, di) in self.work.iter_mut().zip(&self.dinv) {
+            *w *= di;
+        }
+        for j in (0..n).rev() {
+            let range = self.l_colptr[j]..self.l_colptr[j + 1];
+            let mut acc = self.work[j];
+            for (&i, &l) in self.l_row[range.clone()].iter().zip(&self.lx[range]) {
+                acc -= l * self.work[i];
+            }
+            self.work[j] = acc;
+        }
+        for (w, &p) in self.work.iter().zip(&self.perm) {
+            b[p] = *w;
+        }
+    }
+}
+
+/// The pivot signs in the permuted order.
+fn perm_signs(signs: &[i8], perm: &[usize]) -> Vec<f64> {
+    perm.iter().map(|&old| f64::from(signs[old])).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A quasi-definite 5 × 5 matrix: the solve inverts it, and agrees with QDLDL's.
+    #[test]
+    fn solves_a_quasi_definite_system_like_qdldl() {
+        // Upper triangle of [4 1 0 1 0; 1 3 1 0 1; 0 1 −2 0 0; 1 0 0 −3 1; 0 1 0 1 5].
+        let dense = [
+            [4.0, 1.0, 0.0, 1.0, 0.0],
+            [1.0, 3.0, 1.0, 0.0, 1.0],
+            [0.0, 1.0, -2.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, -3.0, 1.0],
+            [0.0, 1.0, 0.0, 1.0, 5.0],
+        ];
+        let (mut colptr, mut rowval, mut vals) = (vec![0], Vec::new(), Vec::new());
+        for c in 0..5 {
+            for (r, row) in dense.iter().enumerate().take(c + 1) {
+                if row[c] != 0.0 {
+                    rowval.push(r);
+                    vals.push(row[c]);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        let signs = [1, 1, -1, -1, 1];
+        let mut ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7)).unwrap();
+        assert!(ldl.factor(&vals));
+        let b = [1.0, -2.0, 0.5, 3.0, -1.0];
+        let mut x = b;
+        ldl.solve(&mut x);
+        for (r, row) in dense.iter().enumerate() {
+            let kx: f64 = row.iter().zip(&x).map(|(a, v)| a * v).sum();
+            assert!((kx - b[r]).abs() < 1e-12, "row {r}: {kx} vs {}", b[r]);
+        }
+        let settings = QDLDLSettings { Dsigns: Some(signs.to_vec()), ..QDLDLSettings::default() };
+        let mut q =
+            QDLDLFactorisation::new(&CscMatrix::new(5, 5, colptr, rowval, vals), Some(settings))
+                .unwrap();
+        let mut xq = b;
+        q.solve(&mut xq);
+        for (a, b) in x.iter().zip(&xq) {
+            assert!((a - b).abs() < 1e-13);
+        }
+        assert_eq!(ldl.nnz_l(), q.nnzL());
+    }
+
+    /// A pivot of the wrong sign is regularized to ±δ instead of breaking the factorization.
+    #[test]
+    fn a_wrong_signed_pivot_is_regularized() {
+        // [1 0; 0 1] with the second pivot expected negative.
+        let mut ldl = Ldl::analyse(&[0, 1, 2], &[0, 1], &[1, -1], (1e-13, 1e-7)).unwrap();
+        assert!(ldl.factor(&[1.0, 1.0]));
+        let mut x = [1.0, 1.0];
+        ldl.solve(&mut x);
+        assert!((x[0] - 1.0).abs() < 1e-15);
+        assert!((x[1] + 1e7).abs() < 1e-3, "{x:?}");
+    }
+}
