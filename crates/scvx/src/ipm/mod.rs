@@ -23,8 +23,9 @@
 //! [      A₀          −δI ] [Δy₀] = [r_0]
 //! ```
 //!
-//! which is quasi-definite, so one sparse LDLᵀ factorization (QDLDL with an approximate
-//! minimum-degree ordering, computed once; see `ipm/kkt.rs`) serves the
+//! which is quasi-definite, so one sparse LDLᵀ factorization (an approximate-minimum-degree
+//! ordering and symbolic analysis from QDLDL, computed once, then arithmetic only; see
+//! `ipm/kkt.rs` and `ipm/ldl.rs`) serves the
 //! predictor and corrector of an iteration. Each direction is then refined against the full,
 //! unreduced Newton system: the reduction amplifies errors in Δx by W⁻² in Δz as the iterates
 //! approach the cone boundaries. GᵀW⁻²G is accumulated from a list of products fixed by the
