@@ -70,19 +70,10 @@ fn problem() -> impl Strategy<Value = Problem> {
     })
 }
 
-fn solve_both(pr: &Problem, tol: f64) -> (InteriorPoint, IpmStatus, Vec<f64>, f64) {
+/// Clarabel's solution (x, objective) of the dense problem at tolerance `tol`.
+fn clarabel(pr: &Problem, tol: f64) -> (Vec<f64>, f64) {
     let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
     let (ac, ar, av) = csc(pr.m, pr.n, &pr.a, false);
-    let mut ipm = InteriorPoint::new(
-        pr.n,
-        (&pc, &prw),
-        pr.m,
-        (&ac, &ar),
-        pr.cones.clone(),
-        IpmSettings { tolerance: tol, refinement_steps: 2, ..IpmSettings::default() },
-    )
-    .unwrap();
-    let status = ipm.solve(&pv, &pr.q, &av, &pr.b);
     let mut cones = vec![ZeroConeT(pr.cones.zero), NonnegativeConeT(pr.cones.nonneg)];
     cones.extend(pr.cones.soc.iter().map(|&d| SecondOrderConeT(d)));
     let settings = DefaultSettings {
@@ -103,7 +94,26 @@ fn solve_both(pr: &Problem, tol: f64) -> (InteriorPoint, IpmStatus, Vec<f64>, f6
     .unwrap();
     cl.solve();
     assert!(matches!(cl.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved));
-    (ipm, status, cl.solution.x.clone(), cl.solution.obj_val)
+    (cl.solution.x.clone(), cl.solution.obj_val)
+}
+
+/// Ours and Clarabel's solve at tolerance `tol` (ours with two refinement steps, which
+/// tolerances below 1e-8 want).
+fn solve_both(pr: &Problem, tol: f64) -> (InteriorPoint, IpmStatus, Vec<f64>, f64) {
+    let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
+    let (ac, ar, av) = csc(pr.m, pr.n, &pr.a, false);
+    let mut ipm = InteriorPoint::new(
+        pr.n,
+        (&pc, &prw),
+        pr.m,
+        (&ac, &ar),
+        pr.cones.clone(),
+        IpmSettings { tolerance: tol, refinement_steps: 2, ..IpmSettings::default() },
+    )
+    .unwrap();
+    let status = ipm.solve(&pv, &pr.q, &av, &pr.b);
+    let (x, obj) = clarabel(pr, tol);
+    (ipm, status, x, obj)
 }
 
 proptest! {
@@ -326,26 +336,12 @@ fn a_cycling_mehrotra_step_is_caught() {
         -0.5423324287556686,
         2.1023102638583615,
     ];
-    let (status, x, _) = solve_dense(5, &p, &q, &a, &b, Cones { zero: 1, nonneg: 4, soc: vec![3] });
+    let cones = Cones { zero: 1, nonneg: 4, soc: vec![3] };
+    let (status, x, _) = solve_dense(5, &p, &q, &a, &b, cones.clone());
     assert_eq!(status, IpmStatus::Solved);
-    // The optimality conditions at x, checked independently: same answer as Clarabel.
-    let clarabel = {
-        let (pc, prw, pv) = csc(5, 5, &p, true);
-        let (ac, ar, av) = csc(8, 5, &a, false);
-        let cones = [ZeroConeT(1), NonnegativeConeT(4), SecondOrderConeT(3)];
-        let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
-        let mut cl = DefaultSolver::new(
-            &CscMatrix::new(5, 5, pc, prw, pv),
-            &q,
-            &CscMatrix::new(8, 5, ac, ar, av),
-            &b,
-            &cones,
-            settings,
-        )
-        .unwrap();
-        cl.solve();
-        cl.solution.x.clone()
-    };
+    // The same answer as Clarabel's.
+    let (p, q, a, b) = (p.to_vec(), q.to_vec(), a.to_vec(), b.to_vec());
+    let (clarabel, _) = clarabel(&Problem { n: 5, m: 8, p, q, a, b, cones }, 1e-8);
     for (u, v) in x.iter().zip(&clarabel) {
         assert!((u - v).abs() < 1e-4, "{x:?} vs {clarabel:?}");
     }
