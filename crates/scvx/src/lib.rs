@@ -6,6 +6,7 @@ pub mod discretization;
 pub mod ipm;
 pub mod problem;
 pub mod ptr;
+mod sparse;
 
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{

@@ -825,20 +825,8 @@ impl Ptr {
                 }
             }
         }
-        pairs.sort_by_key(|&(r, c)| (c, r));
-        pairs.dedup();
-        let mut p_colptr = vec![0; n_vars + 1];
-        for &(_, c) in &pairs {
-            p_colptr[c + 1] += 1;
-        }
-        for c in 0..n_vars {
-            p_colptr[c + 1] += p_colptr[c];
-        }
-        let p_rowval: Vec<usize> = pairs.iter().map(|p| p.0).collect();
-        let find = |r: usize, c: usize| {
-            let lo = p_colptr[c];
-            lo + p_rowval[lo..p_colptr[c + 1]].binary_search(&r).expect("in the pattern")
-        };
+        let p_pattern = crate::sparse::CscPattern::from_entries(n_vars, pairs);
+        let find = |r: usize, c: usize| p_pattern.position(r, c);
         let p_diag: Vec<usize> = (0..n_primal).map(|c| find(c, c)).collect();
         for el in &mut elements {
             let d = el.cols.len();
@@ -850,6 +838,7 @@ impl Ptr {
                 }
             }
         }
+        let crate::sparse::CscPattern { colptr: p_colptr, rowval: p_rowval } = p_pattern;
         let dws = ocp.dynamics.workspace();
         Ptr {
             ocp,

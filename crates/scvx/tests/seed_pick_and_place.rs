@@ -17,6 +17,17 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
     assert_meets_the_task(&s, &r);
 }
 
+/// The defaults with Clarabel for every subproblem.
+fn only_clarabel() -> PtrSettings {
+    PtrSettings {
+        subproblem: SubproblemSettings {
+            solver: SubproblemSolver::Clarabel,
+            ..SubproblemSettings::default()
+        },
+        ..PtrSettings::default()
+    }
+}
+
 /// The native warm-started interior point (the default; Clarabel only as a fallback) and
 /// Clarabel for every subproblem take the same path to the same final time (first-order
 /// PTR does not use the duals, where the two may differ), the native one in fewer
@@ -26,14 +37,7 @@ fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
     let s = seed::build();
     let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
-    let only_clarabel = PtrSettings {
-        subproblem: SubproblemSettings {
-            solver: SubproblemSolver::Clarabel,
-            ..SubproblemSettings::default()
-        },
-        ..PtrSettings::default()
-    };
-    let clarabel = Ptr::new(s.ocp.clone(), only_clarabel).solve(&s.x, &s.u, &s.s).unwrap();
+    let clarabel = Ptr::new(s.ocp.clone(), only_clarabel()).solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.history.len(), clarabel.history.len());
     assert!(
         (r.final_time - clarabel.final_time).abs() < 1e-3,
@@ -59,14 +63,7 @@ fn clarabel_takes_over_when_the_native_solver_stops_short() {
         ..PtrSettings::default()
     };
     let r = Ptr::new(s.ocp.clone(), capped).solve(&s.x, &s.u, &s.s).unwrap();
-    let only_clarabel = PtrSettings {
-        subproblem: SubproblemSettings {
-            solver: SubproblemSolver::Clarabel,
-            ..SubproblemSettings::default()
-        },
-        ..PtrSettings::default()
-    };
-    let c = Ptr::new(s.ocp.clone(), only_clarabel).solve(&s.x, &s.u, &s.s).unwrap();
+    let c = Ptr::new(s.ocp.clone(), only_clarabel()).solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.status, PtrStatus::Converged);
     assert_eq!(r.x, c.x);
     assert_eq!(r.final_time, c.final_time);

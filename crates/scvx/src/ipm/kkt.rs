@@ -15,55 +15,7 @@
 use super::ldl::Ldl;
 use super::scaling::Scaling;
 use super::{Cones, IpmError, dot};
-
-/// Row view of A: for each row, its (column, index into A's values) entries.
-#[derive(Debug, Clone)]
-pub(super) struct Rows {
-    ptr: Vec<usize>,
-    entries: Vec<(usize, usize)>,
-}
-
-impl Rows {
-    pub(super) fn new(n: usize, m: usize, a_colptr: &[usize], a_rowval: &[usize]) -> Rows {
-        let mut ptr = vec![0usize; m + 1];
-        for &r in a_rowval {
-            ptr[r + 1] += 1;
-        }
-        for r in 0..m {
-            ptr[r + 1] += ptr[r];
-        }
-        let mut fill = ptr.clone();
-        let mut entries = vec![(0usize, 0usize); a_rowval.len()];
-        for c in 0..n {
-            for p in a_colptr[c]..a_colptr[c + 1] {
-                let r = a_rowval[p];
-                entries[fill[r]] = (c, p);
-                fill[r] += 1;
-            }
-        }
-        Rows { ptr, entries }
-    }
-
-    /// Row r's (column, value index) entries.
-    pub(super) fn row(&self, r: usize) -> &[(usize, usize)] {
-        &self.entries[self.ptr[r]..self.ptr[r + 1]]
-    }
-
-    /// Nonzeros of A.
-    pub(super) fn nnz(&self) -> usize {
-        self.entries.len()
-    }
-
-    /// `a_r · x` for row r of A with values `a`.
-    pub(super) fn dot(&self, r: usize, a: &[f64], x: &[f64]) -> f64 {
-        self.dot_from(0.0, r, a, x)
-    }
-
-    /// `init + a_r · x`, summed from `init`.
-    pub(super) fn dot_from(&self, init: f64, r: usize, a: &[f64], x: &[f64]) -> f64 {
-        self.row(r).iter().fold(init, |acc, &(c, p)| acc + a[p] * x[c])
-    }
-}
+use crate::sparse::{CscPattern, Rows};
 
 /// A product `kkt[kkt] += weight_i · a[pa] · a[pb]` of a nonnegative row i.
 #[derive(Debug, Clone, Copy)]
@@ -156,20 +108,8 @@ impl ReducedKkt {
         }
         entries.extend(raw_terms.iter().map(|t| (t.0, t.1)));
         entries.extend(pair_cols.iter().map(|t| (t.0, t.1)));
-        entries.sort_unstable_by_key(|&(r, c)| (c, r));
-        entries.dedup();
-        let mut colptr = vec![0usize; dim + 1];
-        for &(_, c) in &entries {
-            colptr[c + 1] += 1;
-        }
-        for c in 0..dim {
-            colptr[c + 1] += colptr[c];
-        }
-        let rowval: Vec<usize> = entries.iter().map(|e| e.0).collect();
-        let find = |r: usize, c: usize| {
-            let lo = colptr[c];
-            lo + rowval[lo..colptr[c + 1]].binary_search(&r).expect("in the pattern")
-        };
+        let pattern = CscPattern::from_entries(dim, entries);
+        let find = |r: usize, c: usize| pattern.position(r, c);
         let diag = (0..dim).map(|c| find(c, c)).collect();
         let mut p_map = Vec::with_capacity(p_rowval.len());
         for c in 0..n {
@@ -184,10 +124,10 @@ impl ReducedKkt {
             .map(|&(ca, cb, row, pa, pb)| Term { kkt: find(ca, cb), row, pa, pb })
             .collect();
         let pairs = pair_cols.iter().map(|&(ca, cb, ja, jb)| (find(ca, cb), ja, jb)).collect();
-        let nnz = rowval.len();
+        let nnz = pattern.nnz();
         let mut signs = vec![1i8; dim];
         signs[n..].fill(-1);
-        let ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7))
+        let ldl = Ldl::analyse(&pattern.colptr, &pattern.rowval, &signs, (1e-13, 2e-7))
             .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
         Ok(ReducedKkt {
             n,

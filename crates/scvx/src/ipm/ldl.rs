@@ -18,6 +18,8 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
 
+use crate::sparse::Rows;
+
 /// The factorization of `P Kₚ Pᵀ = L D Lᵀ` for one pattern of K (upper triangle).
 #[derive(Debug, Clone)]
 pub(super) struct Ldl {
@@ -31,8 +33,7 @@ pub(super) struct Ldl {
     l_row: Vec<usize>,
     lx: Vec<f64>,
     /// Row pattern of L: for row k, (column j, position of L(k, j) in `lx`), j ascending.
-    r_ptr: Vec<usize>,
-    r_entries: Vec<(usize, usize)>,
+    l_rows: Rows,
     d: Vec<f64>,
     dinv: Vec<f64>,
     signs: Vec<f64>,
@@ -81,21 +82,7 @@ impl Ldl {
         // L's pattern, and its transpose with positions.
         let l_colptr = symbolic.L.colptr.clone();
         let l_row = symbolic.L.rowval.clone();
-        let mut r_ptr = vec![0; n + 1];
-        for &r in &l_row {
-            r_ptr[r + 1] += 1;
-        }
-        for r in 0..n {
-            r_ptr[r + 1] += r_ptr[r];
-        }
-        let mut fill = r_ptr.clone();
-        let mut r_entries = vec![(0, 0); l_row.len()];
-        for j in 0..n {
-            for (p, &r) in l_row.iter().enumerate().take(l_colptr[j + 1]).skip(l_colptr[j]) {
-                r_entries[fill[r]] = (j, p);
-                fill[r] += 1;
-            }
-        }
+        let l_rows = Rows::new(n, &l_colptr, &l_row);
         Some(Ldl {
             perm,
             a_colptr,
@@ -103,8 +90,7 @@ impl Ldl {
             lx: vec![0.0; l_row.len()],
             l_colptr,
             l_row,
-            r_ptr,
-            r_entries,
+            l_rows,
             d: vec![0.0; n],
             dinv: vec![0.0; n],
             signs: perm_signs(signs, &symbolic.perm),
@@ -133,7 +119,7 @@ impl Ldl {
                     self.y[i] += values[src];
                 }
             }
-            for &(j, pos) in &self.r_entries[self.r_ptr[k]..self.r_ptr[k + 1]] {
+            for &(j, pos) in self.l_rows.row(k) {
                 let yj = self.y[j];
                 self.y[j] = 0.0;
                 let start = self.l_colptr[j];

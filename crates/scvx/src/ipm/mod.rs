@@ -44,7 +44,8 @@ mod kkt;
 mod ldl;
 mod scaling;
 
-use kkt::{ReducedKkt, Rows};
+use crate::sparse::Rows;
+use kkt::ReducedKkt;
 use scaling::{Scaling, push_inside, shift_into_cone, step_length};
 
 /// Largest second-order cone handled (scaling works on fixed-size arrays).
@@ -257,7 +258,7 @@ impl InteriorPoint {
         if a_rowval.iter().any(|&r| r >= m) {
             return bad("row index of A out of range");
         }
-        let rows = Rows::new(n, m, a_colptr, a_rowval);
+        let rows = Rows::new(m, a_colptr, a_rowval);
         let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones)?;
         let cone_rows = m - cones.zero;
         Ok(InteriorPoint {
