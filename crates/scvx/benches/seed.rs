@@ -1,7 +1,8 @@
 //! The seed pick-and-place: one full solve (after problem construction), the same with the
 //! quasi-Newton model and the Lagrangian merit, the same with Clarabel (instead of the
 //! default native interior point) for every subproblem, the collision variant with either
-//! solver, and one discretization of the guess.
+//! solver, the plain and collision variants with interval bounds (the velocity limits also
+//! enforced between the nodes), and one discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -47,6 +48,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve_collision_clarabel", |b| {
         b.iter(|| black_box(ptr_cn.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
+    for (name, collision) in
+        [("solve_interval_bounds", false), ("solve_collision_interval_bounds", true)]
+    {
+        let si = seed::build_with(seed::Variant { collision, interval_bounds: true });
+        let mut ptr_i = Ptr::new(si.ocp.clone(), PtrSettings::default());
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(ptr_i.solve(&si.x, &si.u, &si.s).unwrap().final_time))
+        });
+    }
     let d = &s.ocp.dynamics;
     let mut ws = d.workspace();
     let mut out = d.output(seed::NODES);

@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [dp] [qn] [ipm|clarabel]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [interval] [dp] [qn] [ipm|clarabel]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -10,9 +10,13 @@ mod seed;
 use armature_scvx::{IterationTable, Ptr, PtrSettings};
 
 fn main() {
-    // `-- collision` solves the seed's collision variant.
-    let collision = std::env::args().any(|a| a == "collision");
-    let s = if collision { seed::build_collision() } else { seed::build() };
+    // `-- collision` solves the seed's collision variant; `interval` adds the velocity
+    // bounds between the nodes.
+    let has = |flag: &str| std::env::args().any(|a| a == flag);
+    let s = seed::build_with(seed::Variant {
+        collision: has("collision"),
+        interval_bounds: has("interval"),
+    });
     let t0 = std::time::Instant::now();
     // `-- dp`: adaptive Dormand–Prince instead of fixed-step RK4.
     let mut settings = PtrSettings::default();

@@ -126,6 +126,15 @@ pub struct Discretization {
     pub x_prop: Vec<f64>,
     /// `x_{k+1} − x_prop_k`, segment after segment.
     pub defect: Vec<f64>,
+    /// Points per segment of the integration grid recorded in [`grid`](Self::grid): 0 (no
+    /// grid, [`Dynamics::output`]) or `substeps + 1` ([`Dynamics::output_with_grid`]).
+    pub grid_points: usize,
+    /// The augmented vector `[x, Φ, B⁻, B⁺]` (layout of [`Dynamics::grid_stride`]) at the
+    /// grid points `τ_k + j·Δτ/substeps`, j = 0..=substeps, of every segment (segment after
+    /// segment, point after point): the trajectory and its sensitivities to the segment's
+    /// `x_k`, `[u_k; s_k]` and `u_{k+1}` between the nodes. [`Dynamics::defects`] writes the
+    /// states `x` of each block only.
+    pub grid: Vec<f64>,
 }
 
 /// A densely sampled trajectory from [`Dynamics::propagate_dense`].
@@ -164,6 +173,9 @@ struct Lane {
 /// One lane's share of a [`Discretization`]: its first segment and its output slices.
 struct LaneOut<'a> {
     first: usize,
+    /// Grid values per segment (0 without a grid).
+    grid_seg: usize,
+    grid: &'a mut [f64],
     a: &'a mut [f64],
     b_minus: &'a mut [f64],
     b_plus: &'a mut [f64],
@@ -174,15 +186,27 @@ struct LaneOut<'a> {
 impl<'a> LaneOut<'a> {
     /// Splits off the first `segs` segments (`n`, `m` = state and control + 1 sizes).
     fn split(self, segs: usize, n: usize, m: usize) -> (LaneOut<'a>, LaneOut<'a>) {
+        let (g, g2) = self.grid.split_at_mut(segs * self.grid_seg);
         let (a, a2) = self.a.split_at_mut(segs * n * n);
         let (bm, bm2) = self.b_minus.split_at_mut(segs * n * m);
         let (bp, bp2) = self.b_plus.split_at_mut(segs * n * m);
         let (xp, xp2) = self.x_prop.split_at_mut(segs * n);
         let (d, d2) = self.defect.split_at_mut(segs * n);
         (
-            LaneOut { first: self.first, a, b_minus: bm, b_plus: bp, x_prop: xp, defect: d },
+            LaneOut {
+                first: self.first,
+                grid_seg: self.grid_seg,
+                grid: g,
+                a,
+                b_minus: bm,
+                b_plus: bp,
+                x_prop: xp,
+                defect: d,
+            },
             LaneOut {
                 first: self.first + segs,
+                grid_seg: self.grid_seg,
+                grid: g2,
                 a: a2,
                 b_minus: bm2,
                 b_plus: bp2,
@@ -397,9 +421,14 @@ impl Dynamics {
         (uk, uk1, sk, seg): (&[f64], &[f64], f64, usize),
         ws: &mut Lane,
         full: bool,
+        grid: &mut [f64],
     ) -> Result<(), DiscretizationError> {
         let n = self.n_x;
         let len = if full { ws.v.len() } else { n };
+        let stride = self.grid_stride();
+        let points = grid.len() / stride;
+        // The next grid point to land on (steps are clipped to reach it exactly).
+        let mut next = 1;
         let Lane { fws, input, fval, jac, v, k, tmp } = ws;
         let mut t = 0.0;
         let mut h = first_step.min(dtau);
@@ -414,6 +443,14 @@ impl Dynamics {
                 )));
             }
             h = h.min(dtau - t);
+            let mut land = false;
+            if next < points {
+                let tg = dtau * next as f64 / (points - 1) as f64;
+                if t + h >= tg - 1e-14 * dtau {
+                    h = tg - t;
+                    land = true;
+                }
+            }
             for stage in 1..7 {
                 for i in 0..len {
                     let mut acc = v[i];
@@ -465,6 +502,10 @@ impl Dynamics {
                 v[..len].copy_from_slice(&tmp[..len]);
                 let (first, last) = k.split_at_mut(6);
                 first[0][..len].copy_from_slice(&last[0][..len]);
+                if land {
+                    grid[next * stride..next * stride + len].copy_from_slice(&v[..len]);
+                    next += 1;
+                }
             }
             h *= factor;
         }
@@ -481,7 +522,26 @@ impl Dynamics {
             b_plus: vec![0.0; k * n * m],
             x_prop: vec![0.0; k * n],
             defect: vec![0.0; k * n],
+            grid_points: 0,
+            grid: Vec::new(),
         }
+    }
+
+    /// Length of one grid block `[x, Φ, B⁻, B⁺]`: `n + n² + 2n(m + 1)`; its parts start at
+    /// 0, n, n + n² and n + n² + n(m + 1), each row-major as in [`Discretization`].
+    pub fn grid_stride(&self) -> usize {
+        let (n, m) = (self.n_x, self.n_u + 1);
+        n + n * n + 2 * n * m
+    }
+
+    /// An empty result for `nodes` nodes that also records the trajectory and its
+    /// sensitivities at the `substeps + 1` points of each segment's integration grid (see
+    /// [`Discretization::grid`]); discretize it with the same `substeps`.
+    pub fn output_with_grid(&self, nodes: usize, substeps: usize) -> Discretization {
+        let mut out = self.output(nodes);
+        out.grid_points = substeps + 1;
+        out.grid = vec![0.0; out.segments * out.grid_points * self.grid_stride()];
+        out
     }
 
     /// Time derivative of the augmented vector `V = [x, Φ, B⁻, B⁺]` at normalised segment
@@ -726,21 +786,26 @@ impl Dynamics {
             || u.len() != nodes * mu
             || out.segments != nodes - 1
             || settings.substeps == 0
+            || (out.grid_points != 0 && out.grid_points != settings.substeps + 1)
         {
             return Err(DiscretizationError::Size(format!(
-                "{nodes} nodes need x of {} (got {}), u of {} (got {}), an output for {} segments (has {}) and substeps ≥ 1",
+                "{nodes} nodes need x of {} (got {}), u of {} (got {}), an output for {} segments (has {}), substeps ≥ 1 and a grid of substeps + 1 points (substeps {}, grid points {})",
                 nodes * n,
                 x.len(),
                 nodes * mu,
                 u.len(),
                 nodes.saturating_sub(1),
-                out.segments
+                out.segments,
+                settings.substeps,
+                out.grid_points
             )));
         }
         let segments = nodes - 1;
         let lanes = if settings.parallel { ws.lanes.len().min(segments) } else { 1 };
         let all = LaneOut {
             first: 0,
+            grid_seg: out.grid_points * self.grid_stride(),
+            grid: &mut out.grid,
             a: &mut out.a,
             b_minus: &mut out.b_minus,
             b_plus: &mut out.b_plus,
@@ -824,8 +889,13 @@ impl Dynamics {
             for i in 0..n {
                 ws.v[n + i * n + i] = 1.0;
             }
+            let stride = self.grid_stride();
+            let grid = &mut out.grid[local * out.grid_seg..(local + 1) * out.grid_seg];
+            if !grid.is_empty() {
+                grid[..len].copy_from_slice(&ws.v[..len]);
+            }
             if let Integrator::DormandPrince { rtol, atol } = integrator {
-                self.dormand_prince((rtol, atol), h, dtau, (uk, uk1, sk, seg), ws, full)?;
+                self.dormand_prince((rtol, atol), h, dtau, (uk, uk1, sk, seg), ws, full, grid)?;
             } else {
                 let Lane { fws, input, fval, jac, v, k, tmp } = &mut *ws;
                 let [k0, k1, k2, k3, ..] = k;
@@ -848,6 +918,10 @@ impl Dynamics {
                     self.rhs(tmp, b1, uk, uk1, sk, seg, fws, input, fval, jac, k3, full)?;
                     for i in 0..len {
                         v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
+                    }
+                    if !grid.is_empty() {
+                        let at = (step + 1) * stride;
+                        grid[at..at + len].copy_from_slice(&v[..len]);
                     }
                 }
             }

@@ -620,6 +620,7 @@ impl Problem {
                 .map(|(i, (g, o))| (n_named + i, o.eps, g.first, g.last))
                 .collect(),
             nodal,
+            interval_bounds: Vec::new(),
         };
         let guess = self.guess(&ocp, n, &settings)?;
         let blocks = |names: Vec<(String, usize)>| {

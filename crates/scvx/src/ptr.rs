@@ -26,6 +26,25 @@
 //! Nodal constraints are either entrywise inequalities (linearised, with a virtual buffer
 //! each) or balls `‖g‖ ≤ r` kept as second-order cones around the linearised `g`.
 //!
+//! # Interval bounds
+//! A state row listed in [`Ocp::interval_bounds`] gets, per segment and finite bound, one more
+//! buffered inequality: its *peak* on the segment. The discretization records the trajectory
+//! and its sensitivities `[Φ | B⁻ | B⁺](t_j)` at the integration grid's points
+//! `t_j = τ_k + j·Δτ/substeps` ([`Discretization::grid`]). The peak is the largest value of
+//! `±x_r(t_j)`, refined by the parabola through it and its two neighbours (the vertex, when
+//! the parabola is concave and the vertex lies between them):
+//! `x̂_r = Σ_i w_i x_r(t_i)` with the parabola's Lagrange weights at the vertex. The row is
+//! `±Σ_i w_i ∂x_r(t_i)/∂z · Δz − ν_b ≤ bound ∓ x̂_r`: by the envelope theorem the vertex's
+//! value moves with `z` as the parabola does at a fixed vertex, so the weights are held.
+//!
+//! Why: a CTCS integral `∫ max(0, x_r − x_max)` guarantees the bound in continuous time, but
+//! where the trajectory touches the bound inside a segment its integrand is zero around the
+//! contact and so is its linearization. The subproblem then pushes through the bound, the
+//! merit rejects or shrinks the step, and a first-order loop creeps along the bound. On the
+//! seed arm, whose time-optimal velocities ride their limits inside segments, the peak rows
+//! take PTR from T = 1.553 s (a short-step stop after a run of such rejections) to 1.278 s,
+//! with iteration counts that no longer swing with every setting.
+//!
 //! # Acceptance
 //! By default ([`TrustRegionUpdate::Adaptive`]) the merit
 //! `J(z) = w_t·t_f(z) + Σ λ_vc,i·|defect_i(z)| + Σ λ_vb·max(0, violation)` and the
@@ -97,6 +116,15 @@ pub struct Ocp {
     pub increments: Vec<(usize, f64, usize, usize)>,
     /// Nodal constraints, linearised each iteration with virtual buffers.
     pub nodal: Vec<NodalConstraint>,
+    /// State rows whose bounds `x_min ≤ x(t) ≤ x_max` are also enforced between the nodes,
+    /// at each segment's peak: the largest (smallest) value of the row on the integration
+    /// grid, refined by the parabola through the grid points around it, linearized through
+    /// the grid's sensitivities (Danskin: the peak's time held fixed) and bounded with a
+    /// virtual buffer. A CTCS integral of the positive part keeps a bound in continuous
+    /// time but its linearization is blind where the trajectory touches the bound (the
+    /// integrand has no gradient there), so a subproblem pushes through it and the merit
+    /// rejects the step; a peak row shows the subproblem the bound with a full gradient.
+    pub interval_bounds: Vec<usize>,
 }
 
 /// A (generally nonconvex) constraint on `g(x_k, u_k)` at listed nodes.
@@ -498,6 +526,21 @@ enum Source {
     G(usize),
     /// Its negative (cone rows: `s = b − A z`).
     NegG(usize),
+    /// A coefficient of an interval-bound peak row (index into the per-iteration buffer).
+    Peak(usize),
+}
+
+/// One interval-bound row: the peak of state `r` on segment `seg` against its upper
+/// (`sign` +1) or lower (−1) bound.
+#[derive(Debug, Clone)]
+struct PeakRow {
+    seg: usize,
+    r: usize,
+    sign: f64,
+    bound: f64,
+    row: usize,
+    /// Its coefficients: offsets into a grid block (`[x, Φ, B⁻, B⁺]`), in `peak_src`.
+    src: std::ops::Range<usize>,
 }
 
 /// Scale of the initial quasi-Newton block, `γ·S⁻²` with `γ` this times Nocedal and
@@ -522,7 +565,10 @@ struct NodalEval {
     input: Vec<f64>,
     values: Vec<f64>,
     jac: Vec<f64>,
+    /// Per buffer (nodal, then interval-bound peaks): its positive violation.
     violation: Vec<f64>,
+    /// Coefficients of the interval-bound rows (`Source::Peak`) at the last `fill_peaks`.
+    peak_vals: Vec<f64>,
 }
 
 /// Where one nodal constraint row sits: its evaluation block and its subproblem row.
@@ -553,6 +599,9 @@ pub struct Ptr {
     /// Start of the virtual-buffer variables.
     vb0: usize,
     nodal_rows: Vec<NodalRow>,
+    /// Interval-bound rows and the grid offsets of their coefficients.
+    peaks: Vec<PeakRow>,
+    peak_src: Vec<usize>,
     /// Per (constraint, node) evaluation: offset of its values and Jacobian nonzeros.
     g_offsets: Vec<(usize, usize)>,
     g_len: (usize, usize),
@@ -601,7 +650,17 @@ impl Ptr {
                     }
             })
             .sum();
-        let n_vars = vb0 + n_buffers;
+        let interval_rows: Vec<usize> =
+            ocp.interval_bounds.iter().copied().filter(|&r| r < n).collect();
+        let n_peaks: usize = interval_rows
+            .iter()
+            .map(|&r| {
+                (nn - 1)
+                    * (usize::from(ocp.x_max[r].is_finite())
+                        + usize::from(ocp.x_min[r].is_finite()))
+            })
+            .sum();
+        let n_vars = vb0 + n_buffers + n_peaks;
         // Evaluation buffers of the nodal constraints, per (constraint, node).
         let mut g_offsets = Vec::new();
         let (mut gv, mut gj) = (0, 0);
@@ -740,6 +799,39 @@ impl Ptr {
                 eval += 1;
             }
         }
+        // Interval-bound rows: sign·∇x̂_r·Δz − ν_b ≤ bound − sign·x̂_r (values per iteration).
+        let mut peaks = Vec::new();
+        let mut peak_src = Vec::new();
+        let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * mc);
+        let mut pb = vb0 + n_buffers;
+        for k in 0..nn - 1 {
+            for &r in &interval_rows {
+                for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
+                    if !bound.is_finite() {
+                        continue;
+                    }
+                    let start = peak_src.len();
+                    let mut push =
+                        |col: usize, off: usize, trip: &mut Vec<(usize, usize, Source)>| {
+                            trip.push((row, col, Source::Peak(peak_src.len())));
+                            peak_src.push(off);
+                        };
+                    for j in (0..n).filter(|&j| tp.contains(r, j)) {
+                        push(x0 + k * n + j, phi0 + r * n + j, &mut trip);
+                    }
+                    for i in (0..m).filter(|&i| tp.contains(r, n + i)) {
+                        push(u0 + k * m + i, bm0 + r * mc + i, &mut trip);
+                        push(u0 + (k + 1) * m + i, bp0 + r * mc + i, &mut trip);
+                    }
+                    push(s0 + k, bm0 + r * mc + m, &mut trip);
+                    trip.push((row, pb, Source::Const(-1.0)));
+                    peaks.push(PeakRow { seg: k, r, sign, bound, row, src: start..peak_src.len() });
+                    b.push(0.0);
+                    row += 1;
+                    pb += 1;
+                }
+            }
+        }
         for c in vp0..n_vars {
             ineq(c, -1.0, 0.0, &mut trip, &mut b, &mut row);
         }
@@ -785,6 +877,9 @@ impl Ptr {
             ocp.nodal.iter().flat_map(|c| c.nodes.iter().copied()).collect();
         for nr in &nodal_rows {
             row_elem[nr.row] = eval_node[nr.eval];
+        }
+        for p in &peaks {
+            row_elem[p.row] = p.seg;
         }
         let mut elements = Vec::with_capacity(nn);
         for k in 0..nn {
@@ -853,6 +948,8 @@ impl Ptr {
             dws,
             vb0,
             nodal_rows,
+            peaks,
+            peak_src,
             g_offsets,
             g_len: (gv, gj),
             buffers,
@@ -967,6 +1064,37 @@ impl Ptr {
         (sum, max)
     }
 
+    /// The interval-bound rows' coefficients at `d` (with its grid sensitivities) into
+    /// `ev.peak_vals`: `sign·Σ w_i ∂x_r(t_i)/∂z` over the peak's stencil.
+    fn fill_peaks(&self, d: &Discretization, ev: &mut NodalEval) {
+        let stride = self.ocp.dynamics.grid_stride();
+        for p in &self.peaks {
+            let (_, first, w) = peak(d, stride, p);
+            let base = (p.seg * d.grid_points + first) * stride;
+            for q in p.src.clone() {
+                let off = base + self.peak_src[q];
+                let v: f64 =
+                    (0..3).filter(|&i| w[i] != 0.0).map(|i| w[i] * d.grid[off + i * stride]).sum();
+                ev.peak_vals[q] = p.sign * v;
+            }
+        }
+    }
+
+    /// Σ w·(positive violation) of the interval-bound peaks at `d` and the largest
+    /// violation; each peak's positive violation into `ev.violation` after the nodal ones.
+    fn eval_peaks(&self, d: &Discretization, ev: &mut NodalEval, weights: &[f64]) -> (f64, f64) {
+        let stride = self.ocp.dynamics.grid_stride();
+        let nb = self.buffers.len();
+        let (mut sum, mut max) = (0.0, 0.0f64);
+        for (i, p) in self.peaks.iter().enumerate() {
+            let v = peak(d, stride, p).0;
+            ev.violation[nb + i] = v.max(0.0);
+            sum += weights[nb + i] * v.max(0.0);
+            max = max.max(v);
+        }
+        (sum, max)
+    }
+
     /// Propagates the primal point `z = [X | U | S]` (defects only, into `d`) and returns its
     /// merit (see [`merit`](Self::merit)) with the propagation's wall time in ms.
     fn evaluate(
@@ -1011,7 +1139,8 @@ impl Ptr {
         let l1: f64 = d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum();
         let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let (viol, max_viol) = self.eval_nodal(x, u, ev, lam_vb);
-        (self.cost(x, tf) + l1 + viol, tf, max, max_viol)
+        let (pviol, max_pviol) = self.eval_peaks(d, ev, lam_vb);
+        (self.cost(x, tf) + l1 + viol + pviol, tf, max, max_viol.max(max_pviol))
     }
 
     /// The objective: time weight × final time plus the final-state cost.
@@ -1066,6 +1195,9 @@ impl Ptr {
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
         self.settings.validate()?;
         let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        if let Some(&row) = self.ocp.interval_bounds.iter().find(|&&r| r >= n) {
+            return Err(PtrError::IntervalBoundRow { row, states: n });
+        }
         for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
             if v.len() != len {
                 return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
@@ -1199,7 +1331,44 @@ impl Ptr {
             }
             out.push(worst);
         }
+        // Interval bounds: the worst peak of each state row over the segments (the node is
+        // the segment's first).
+        let nb = self.buffers.len();
+        let stride = self.ocp.dynamics.grid_stride();
+        let mut rows: Vec<usize> = self.peaks.iter().map(|p| p.r).collect();
+        rows.sort_unstable();
+        rows.dedup();
+        for r in rows {
+            let mut worst = Violation {
+                constraint: format!(
+                    "bounds of {} between nodes",
+                    self.ocp.dynamics.state_name(r).unwrap_or("state")
+                ),
+                value: 0.0,
+                node: None,
+            };
+            for (i, p) in self.peaks.iter().enumerate().filter(|(_, p)| p.r == r) {
+                let v = peak(&st.dbar, stride, p).0;
+                st.ev.violation[nb + i] = v.max(0.0);
+                if v.max(0.0) > worst.value || worst.node.is_none() {
+                    worst.value = worst.value.max(v.max(0.0));
+                    worst.node = Some(p.seg);
+                }
+            }
+            out.push(worst);
+        }
         out
+    }
+
+    /// An empty discretization for this problem (with the integration grid when it has
+    /// interval bounds).
+    fn output(&self) -> Discretization {
+        let nn = self.ocp.nodes;
+        if self.peaks.is_empty() {
+            self.ocp.dynamics.output(nn)
+        } else {
+            self.ocp.dynamics.output_with_grid(nn, self.settings.discretization.substeps)
+        }
     }
 
     /// Buffers and subproblem data of a solve (allocated once per `Ptr`).
@@ -1235,17 +1404,18 @@ impl Ptr {
             xb: vec![0.0; nn * n],
             ub: vec![0.0; nn * m],
             sb: vec![0.0; nn],
-            dbar: self.ocp.dynamics.output(nn),
-            dcand: self.ocp.dynamics.output(nn),
+            dbar: self.output(),
+            dcand: self.output(),
             ev: NodalEval {
                 ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
                 input: vec![0.0; n + m],
                 values: vec![0.0; self.g_len.0],
                 jac: vec![0.0; self.g_len.1],
-                violation: vec![0.0; self.buffers.len()],
+                violation: vec![0.0; self.buffers.len() + self.peaks.len()],
+                peak_vals: vec![0.0; self.peak_src.len()],
             },
             lam_vc: vec![0.0; n],
-            lam_vb: vec![0.0; self.buffers.len()],
+            lam_vb: vec![0.0; self.buffers.len() + self.peaks.len()],
             lam_tr: 0.0,
             jbar: 0.0,
             tf: 0.0,
@@ -1287,7 +1457,8 @@ impl Ptr {
         let set = &self.settings.clone();
         // Values of this linearization.
         self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb);
-        fill_values(&self.sources, &st.dbar, &st.ev, &mut st.nz);
+        self.fill_peaks(&st.dbar, &mut st.ev);
+        fill_values(&self.sources, &st.dbar, &st.ev, &st.ev.peak_vals, &mut st.nz);
         // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
         // the constant rows `A z ≤ b` become `A Δz ≤ b − A z̄`. The objective then carries no
         // λ_tr‖z̄‖² offset, which at large λ_tr would swamp Clarabel's relative gap tolerance.
@@ -1307,6 +1478,10 @@ impl Ptr {
         for nr in &self.nodal_rows {
             let g = st.ev.values[self.g_offsets[nr.eval].0 + nr.output];
             st.b[nr.row] = if nr.cone { g } else { -g };
+        }
+        let stride = self.ocp.dynamics.grid_stride();
+        for p in &self.peaks {
+            st.b[p.row] = -peak(&st.dbar, stride, p).0;
         }
         st.q.fill(0.0);
         for k in 0..nn - 1 {
@@ -1619,7 +1794,8 @@ impl Ptr {
     }
 
     fn update_hessian(&self, st: &mut Iterate) {
-        fill_values(&self.sources, &st.dcand, &st.ev, &mut st.nz_new);
+        self.fill_peaks(&st.dcand, &mut st.ev);
+        fill_values(&self.sources, &st.dcand, &st.ev, &st.ev.peak_vals, &mut st.nz_new);
         for (e, el) in self.elements.iter().enumerate() {
             let d = el.cols.len();
             if d == 0 {
@@ -1723,7 +1899,13 @@ fn damped_bfgs(h: &mut [f64], s: &[f64], y: &[f64], hs: &mut [f64], r: &mut [f64
 type MeritValues = (f64, f64, f64, f64);
 
 /// The constraint matrix's values from their sources at one linearization.
-fn fill_values(sources: &[Source], d: &Discretization, ev: &NodalEval, out: &mut [f64]) {
+fn fill_values(
+    sources: &[Source],
+    d: &Discretization,
+    ev: &NodalEval,
+    peak_vals: &[f64],
+    out: &mut [f64],
+) {
     for (v, src) in out.iter_mut().zip(sources) {
         *v = match *src {
             Source::Const(c) => c,
@@ -1732,8 +1914,30 @@ fn fill_values(sources: &[Source], d: &Discretization, ev: &NodalEval, out: &mut
             Source::Bp(i) => d.b_plus[i],
             Source::G(i) => ev.jac[i],
             Source::NegG(i) => -ev.jac[i],
+            Source::Peak(i) => peak_vals[i],
         };
     }
+}
+
+/// The peak of an interval-bound row on `d`'s grid: `(sign·x̂ − bound, first grid point of
+/// the stencil, its Lagrange weights)`. The discrete extremum of `sign·x_r` over the grid
+/// points is refined by the parabola through it and its neighbours (the vertex, when the
+/// parabola is concave and the vertex lies between them); `x̂ = Σ w_i x_i`.
+fn peak(d: &Discretization, stride: usize, p: &PeakRow) -> (f64, usize, [f64; 3]) {
+    let pts = d.grid_points;
+    let base = p.seg * pts * stride + p.r;
+    let g = |j: usize| p.sign * d.grid[base + j * stride];
+    let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
+    if pts < 3 {
+        return (g(best) - p.bound, best, [1.0, 0.0, 0.0]);
+    }
+    let c = best.clamp(1, pts - 2);
+    let (gm, g0, gp) = (g(c - 1), g(c), g(c + 1));
+    let curv = gm - 2.0 * g0 + gp;
+    let theta =
+        if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-1.0, 1.0) } else { best as f64 - c as f64 };
+    let w = [0.5 * theta * (theta - 1.0), 1.0 - theta * theta, 0.5 * theta * (theta + 1.0)];
+    (w[0] * gm + w[1] * g0 + w[2] * gp - p.bound, c - 1, w)
 }
 
 /// Clarabel's status as a static name (no allocation per iteration).
@@ -1801,6 +2005,14 @@ pub enum PtrError {
     /// A parameter value the function rejects (wrong length, not finite).
     #[error("parameter: {0}")]
     Parameter(armature_symbolic::SymbolicError),
+    /// [`Ocp::interval_bounds`] names a state row the problem does not have.
+    #[error("interval bound on state row {row}, but the problem has {states} state rows")]
+    IntervalBoundRow {
+        /// The row.
+        row: usize,
+        /// The number of state rows.
+        states: usize,
+    },
     /// [`Ptr::step`] before [`Ptr::start`] or after the final iteration.
     #[error("no solve is running: call start() first (a finished solve takes no more steps)")]
     NotRunning,
@@ -1933,6 +2145,7 @@ struct Iterate {
     ipm: Option<InteriorPoint>,
     /// The native solver could not take this pattern (Clarabel is used throughout).
     ipm_unusable: bool,
+
     sol_x: Vec<f64>,
     sol_z: Vec<f64>,
 }
@@ -1952,6 +2165,85 @@ impl std::fmt::Debug for Iterate {
 mod tests {
     use super::damped_bfgs;
     use proptest::prelude::*;
+
+    /// The interval-bound rows' coefficients are the derivatives of their peaks: central
+    /// differences of the peak value in every column of the row (the envelope theorem holds
+    /// the vertex's weights), on a double integrator whose velocity peaks inside segments.
+    #[test]
+    fn peak_row_coefficients_are_derivatives_of_the_peak() {
+        use super::{Ocp, Ptr, PtrSettings, Source, peak};
+        use crate::{DiscretizationSettings, Dynamics};
+        use armature_symbolic::Expr;
+        let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+        let dynamics = Dynamics::new(&[p, v.clone()], &[a.clone()], &[v, a], &[true]).unwrap();
+        let nodes = 4;
+        let ocp = Ocp {
+            dynamics,
+            nodes,
+            x_min: vec![-10.0, -0.5],
+            x_max: vec![10.0, 0.5],
+            u_min: vec![-1.0],
+            u_max: vec![1.0],
+            x_initial: vec![Some(0.0), Some(0.0)],
+            x_final: vec![None, None],
+            s_min: 0.1,
+            s_max: 10.0,
+            final_time: (0.0, f64::INFINITY),
+            time_weight: 1.0,
+            final_cost: vec![],
+            increments: vec![],
+            nodal: vec![],
+            interval_bounds: vec![1],
+        };
+        let ptr = Ptr::new(ocp, PtrSettings::default());
+        let settings = DiscretizationSettings::default();
+        let stride = ptr.ocp.dynamics.grid_stride();
+        // z = [x (4×2) | u (4) | s (4)]: alternating accelerations make the velocity peak
+        // (up) or dip (down) inside every segment.
+        let mut z = vec![0.0, 0.2, 0.3, 0.1, 0.5, -0.3, 0.6, 0.2];
+        z.extend([1.0, -0.6, 0.8, -0.9]);
+        z.extend([1.2, 0.9, 1.5, 1.5]);
+        let disc = |z: &[f64]| {
+            let mut ws = ptr.ocp.dynamics.workspace();
+            let mut d = ptr.output();
+            ptr.ocp
+                .dynamics
+                .discretize(&z[..8], &z[8..12], &z[12..], &settings, &mut ws, &mut d)
+                .unwrap();
+            d
+        };
+        let d = disc(&z);
+        let mut ev = ptr.iterate().ev;
+        ptr.fill_peaks(&d, &mut ev);
+        let h = 1e-6;
+        let mut checked = 0;
+        for pk in &ptr.peaks {
+            let (_, _, w) = peak(&d, stride, pk);
+            let interior = w.iter().filter(|&&w| w != 0.0).count() == 3;
+            for q in pk.src.clone() {
+                let col = (0..12 + 4)
+                    .find(|&c| {
+                        (ptr.a_colptr[c]..ptr.a_colptr[c + 1])
+                            .any(|i| matches!(ptr.sources[i], Source::Peak(k) if k == q))
+                    })
+                    .unwrap();
+                let (mut zp, mut zm) = (z.clone(), z.clone());
+                zp[col] += h;
+                zm[col] -= h;
+                let fd =
+                    (peak(&disc(&zp), stride, pk).0 - peak(&disc(&zm), stride, pk).0) / (2.0 * h);
+                let an = ev.peak_vals[q];
+                assert!(
+                    (fd - an).abs() < 1e-6 * (1.0 + an.abs()),
+                    "segment {} sign {} w {w:?} col {col}: {an} vs {fd}",
+                    pk.seg,
+                    pk.sign
+                );
+                checked += usize::from(interior);
+            }
+        }
+        assert!(checked >= 8, "{checked} coefficients of refined (interior) peaks checked");
+    }
 
     /// `h` (d×d) times `v`.
     fn mul(h: &[f64], v: &[f64]) -> Vec<f64> {

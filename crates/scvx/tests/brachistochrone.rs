@@ -65,6 +65,7 @@ fn check(settings: PtrSettings) {
         final_cost: vec![],
         increments: vec![],
         nodal: vec![],
+        interval_bounds: vec![],
     };
     let mut ptr = Ptr::new(ocp, settings);
     // Guess: straight line at 45°, speed growing, 1 s.

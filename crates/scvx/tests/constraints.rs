@@ -57,6 +57,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         final_cost: vec![],
         increments: vec![(2, 1e-6, 0, nodes - 1)],
         nodal: vec![],
+        interval_bounds: vec![],
     };
     let mut ptr = Ptr::new(ocp.clone(), published_ptr(150));
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.3, 0.0]).collect();

@@ -324,3 +324,156 @@ fn dormand_prince_that_cannot_meet_its_tolerance_is_an_error() {
     let err = d.discretize(&x, &u, &s, &dp(1e-300, 1e-300), &mut ws, &mut out).unwrap_err();
     assert!(err.to_string().contains("cannot be met"), "{err}");
 }
+
+/// The grid of [`Dynamics::output_with_grid`]: block j of segment k holds the state and its
+/// sensitivities after j of the segment's RK4 substeps. Its ends are the node and the
+/// propagation; its interior sensitivities are central differences of its interior states;
+/// `defects` writes the same states bitwise.
+#[test]
+fn grid_records_the_trajectory_and_its_sensitivities_between_nodes() {
+    let d = nonlinear();
+    let (n, mu) = (3, 2);
+    let m = mu + 1;
+    let nodes = 4;
+    let substeps = 6;
+    let settings = DiscretizationSettings { substeps, ..Default::default() };
+    let stride = d.grid_stride();
+    assert_eq!(stride, n + n * n + 2 * n * m);
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
+    let s: Vec<f64> = vec![1.5, 1.2, 2.0, 2.0];
+    let run = |x: &[f64], u: &[f64], s: &[f64]| {
+        let mut ws = d.workspace();
+        let mut out = d.output_with_grid(nodes, substeps);
+        d.discretize(x, u, s, &settings, &mut ws, &mut out).unwrap();
+        out
+    };
+    let out = run(&x, &u, &s);
+    let pts = substeps + 1;
+    assert_eq!(out.grid_points, pts);
+    assert_eq!(out.grid.len(), (nodes - 1) * pts * stride);
+    let block = |o: &armature_scvx::Discretization, k: usize, j: usize| {
+        o.grid[(k * pts + j) * stride..(k * pts + j + 1) * stride].to_vec()
+    };
+    let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * m);
+    for k in 0..nodes - 1 {
+        // j = 0: the node, Φ = I, B± = 0.
+        let b0 = block(&out, k, 0);
+        assert_eq!(&b0[..n], &x[k * n..(k + 1) * n]);
+        for r in 0..n {
+            for c in 0..n {
+                assert_eq!(b0[phi0 + r * n + c], f64::from(u8::from(r == c)));
+            }
+        }
+        assert!(b0[bm0..].iter().all(|&v| v == 0.0));
+        // j = substeps: the propagation and the segment's matrices, bitwise.
+        let last = block(&out, k, substeps);
+        assert_eq!(&last[..n], &out.x_prop[k * n..(k + 1) * n]);
+        assert_eq!(&last[phi0..bm0], &out.a[k * n * n..(k + 1) * n * n]);
+        assert_eq!(&last[bm0..bp0], &out.b_minus[k * n * m..(k + 1) * n * m]);
+        assert_eq!(&last[bp0..], &out.b_plus[k * n * m..(k + 1) * n * m]);
+    }
+    // Interior points: sensitivities against central differences of the grid states.
+    let h = 1e-6;
+    let k = 1;
+    let check = |dir: &dyn Fn(f64) -> (Vec<f64>, Vec<f64>, Vec<f64>),
+                 col: &dyn Fn(usize) -> usize| {
+        let (xp, up, sp) = dir(h);
+        let (xm, um, sm) = dir(-h);
+        let (p, q) = (run(&xp, &up, &sp), run(&xm, &um, &sm));
+        for j in 1..substeps {
+            let (bp, bq, b) = (block(&p, k, j), block(&q, k, j), block(&out, k, j));
+            for r in 0..n {
+                let fd = (bp[r] - bq[r]) / (2.0 * h);
+                let an = b[col(r)];
+                assert!((fd - an).abs() < 1e-7 * (1.0 + an.abs()), "j {j} row {r}: {an} vs {fd}");
+            }
+        }
+    };
+    for c in 0..n {
+        let dir = |e: f64| {
+            let mut xx = x.clone();
+            xx[k * n + c] += e;
+            (xx, u.clone(), s.clone())
+        };
+        check(&dir, &|r| phi0 + r * n + c);
+    }
+    for i in 0..mu {
+        for (node, base) in [(k, bm0), (k + 1, bp0)] {
+            let dir = |e: f64| {
+                let mut uu = u.clone();
+                uu[node * mu + i] += e;
+                (x.clone(), uu, s.clone())
+            };
+            check(&dir, &|r| base + r * m + i);
+        }
+    }
+    let dir = |e: f64| {
+        let mut ss = s.clone();
+        ss[k] += e;
+        (x.clone(), u.clone(), ss)
+    };
+    check(&dir, &|r| bm0 + r * m + mu);
+    // Defects alone write the same grid states.
+    let mut ws = d.workspace();
+    let mut alone = d.output_with_grid(nodes, substeps);
+    d.defects(&x, &u, &s, &settings, &mut ws, &mut alone).unwrap();
+    for k in 0..nodes - 1 {
+        for j in 0..pts {
+            assert_eq!(&block(&alone, k, j)[..n], &block(&out, k, j)[..n]);
+        }
+    }
+}
+
+/// On the double integrator with a first-order-hold acceleration the state is a cubic in
+/// time, which RK4 integrates exactly: every grid point is the closed form, with RK4 and with
+/// Dormand–Prince (whose steps are clipped to land on the grid).
+#[test]
+fn grid_points_are_exact_on_the_double_integrator_with_both_integrators() {
+    let p = Expr::variable("p", 1);
+    let v = Expr::variable("v", 1);
+    let a = Expr::variable("a", 1);
+    let d = Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
+        .unwrap();
+    let nodes = 3;
+    let x = [0.3, -0.2, 0.0, 0.0, 0.0, 0.0];
+    let u = [1.0, -2.0, 0.5];
+    let s = [2.0, 0.5, 0.5];
+    let substeps = 5;
+    for settings in [
+        DiscretizationSettings { substeps, ..Default::default() },
+        DiscretizationSettings { substeps, ..dp(1e-12, 1e-14) },
+    ] {
+        let mut ws = d.workspace();
+        let mut out = d.output_with_grid(nodes, substeps);
+        d.discretize(&x, &u, &s, &settings, &mut ws, &mut out).unwrap();
+        let stride = d.grid_stride();
+        // Segment 0 lasts T = s·Δτ = 1 with the acceleration going linearly from 1 to −2.
+        for j in 0..=substeps {
+            let t = j as f64 / substeps as f64;
+            let (a0, a1) = (1.0, -2.0);
+            let vel = -0.2 + a0 * t + (a1 - a0) * t * t / 2.0;
+            let pos = 0.3 - 0.2 * t + a0 * t * t / 2.0 + (a1 - a0) * t * t * t / 6.0;
+            let g = &out.grid[j * stride..j * stride + 2];
+            assert!((g[0] - pos).abs() < 1e-12 && (g[1] - vel).abs() < 1e-12, "{j}: {g:?}");
+        }
+    }
+}
+
+/// A grid sized for other substeps is a located size error, not a panic.
+#[test]
+fn grid_for_other_substeps_is_an_error() {
+    let d = nonlinear();
+    let nodes = 3;
+    let x = vec![0.1; nodes * 3];
+    let u = vec![0.2; nodes * 2];
+    let s = vec![1.0; nodes];
+    let mut ws = d.workspace();
+    let mut out = d.output_with_grid(nodes, 4);
+    let settings = DiscretizationSettings { substeps: 5, ..Default::default() };
+    let e = d.discretize(&x, &u, &s, &settings, &mut ws, &mut out).unwrap_err();
+    assert!(
+        e.to_string().contains("grid of substeps + 1 points (substeps 5, grid points 5)"),
+        "{e}"
+    );
+}

@@ -32,6 +32,7 @@ pub(crate) fn problem(
         final_cost: vec![],
         increments: vec![],
         nodal,
+        interval_bounds: vec![],
     }
 }
 

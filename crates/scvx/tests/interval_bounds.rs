@@ -1,0 +1,68 @@
+//! Interval bounds ([`Ocp::interval_bounds`]): a state bound enforced between the nodes at
+//! each segment's peak. On the minimum-time double integrator with a velocity limit, the
+//! nodal bound alone lets the velocity overshoot inside segments; the peak rows keep it.
+
+mod double_integrator;
+
+use armature_scvx::{Ocp, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus};
+use double_integrator::{poor_guess, problem};
+
+/// Velocity limit (m/s): bang–coast–bang, T* = 2·v/a + (1 − v²/a)/v.
+const VMAX: f64 = 0.6;
+
+fn limited(nodes: usize, interval: bool) -> Ocp {
+    let mut ocp = problem(nodes, |_, _, _| vec![]);
+    ocp.x_max[1] = VMAX;
+    ocp.x_min[1] = -VMAX;
+    if interval {
+        ocp.interval_bounds = vec![1];
+    }
+    ocp
+}
+
+fn solve(ocp: Ocp) -> (PtrResult, f64) {
+    let nodes = ocp.nodes;
+    let dynamics = ocp.dynamics.clone();
+    let (x, u, s) = poor_guess(nodes);
+    let r = Ptr::new(ocp, PtrSettings::default()).solve(&x, &u, &s).unwrap();
+    // The largest velocity on a fine single-shooting propagation.
+    let (_, dense) = dynamics.propagate(&r.x[..2], &r.u, &r.s, 1e-3).unwrap();
+    let vmax = dense.chunks(2).map(|x| x[1].abs()).fold(0.0, f64::max);
+    eprintln!(
+        "{:?} after {} iterations, T = {:.5} s, largest velocity {vmax:.6}",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    (r, vmax)
+}
+
+#[test]
+fn peak_rows_keep_a_velocity_limit_between_the_nodes() {
+    let nodes = 6;
+    let t_star = 2.0 * VMAX + (1.0 - VMAX * VMAX) / VMAX;
+    let (nodal, v_nodal) = solve(limited(nodes, false));
+    assert_eq!(nodal.status, PtrStatus::Converged);
+    // Nodal bounds alone: the velocity overshoots inside a segment, which buys time.
+    assert!(v_nodal > VMAX + 1e-2, "largest velocity {v_nodal}");
+    let (peak, v_peak) = solve(limited(nodes, true));
+    assert_eq!(peak.status, PtrStatus::Converged);
+    // FOH acceleration makes the velocity quadratic in time: the parabola through the grid
+    // points is exact, and so is the peak.
+    assert!(v_peak <= VMAX + 1e-7, "largest velocity {v_peak}");
+    // The limit costs time, and no discretization beats the continuous optimum.
+    assert!(peak.final_time > nodal.final_time + 1e-3);
+    assert!(peak.final_time >= t_star - 1e-6, "T = {} < T* = {t_star}", peak.final_time);
+    // The report names the bound and finds it met.
+    let v = peak.violations.iter().find(|v| v.constraint == "bounds of v between nodes").unwrap();
+    assert!(v.value <= 1e-6 && v.node.is_some(), "{v:?}");
+}
+
+#[test]
+fn an_interval_bound_on_a_missing_row_is_an_error() {
+    let mut ocp = limited(4, true);
+    ocp.interval_bounds = vec![1, 5];
+    let (x, u, s) = poor_guess(4);
+    let e = Ptr::new(ocp, PtrSettings::default()).solve(&x, &u, &s).unwrap_err();
+    assert!(matches!(e, PtrError::IntervalBoundRow { row: 5, states: 2 }), "{e}");
+}
