@@ -175,6 +175,10 @@ pub struct StateSpec {
     /// Right-hand side `d name / dt`, an expression of the states, controls and parameters.
     #[schemars(with = "String")]
     pub dynamics: Spanned<String>,
+    /// Also bound each segment's peak of this state between the nodes (scvx's
+    /// `Ocp::interval_bounds`), for bounds the motion rides. Default false.
+    #[serde(default)]
+    pub interval_bounds: bool,
 }
 
 fn one() -> usize {
@@ -393,6 +397,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         );
         st.initial = conditions(src, &s.initial, s.size, &format!("{what} initial"))?;
         st.terminal = conditions(src, &s.terminal, s.size, &format!("{what} final"))?;
+        st.interval_bounds = s.interval_bounds;
         symbols.insert_leaf(&st.expr());
         states.push(st);
     }

@@ -32,6 +32,40 @@ fn the_double_integrator_problem_file_reaches_the_analytic_time() {
     assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);
 }
 
+/// The speed limit as the state's bounds, enforced between the nodes by `interval_bounds`
+/// alone (no CTCS): on 6 nodes the velocity is quadratic within each segment, its peak
+/// exact, and the dense trajectory keeps the limit; without it the speed overshoots
+/// between the nodes and the final time drops below the continuous optimum.
+#[test]
+fn interval_bounds_hold_a_state_bound_between_the_nodes() {
+    let speed_limited = |interval: bool| {
+        let text = PROBLEM
+            .replace("nodes = 41", "nodes = 6")
+            .replace("min = -10.0\nmax = 10.0\ninitial = 0.0\nfinal = 0.0", &format!(
+                "min = -0.7\nmax = 0.7\ninitial = 0.0\nfinal = 0.0\ninterval_bounds = {interval}"
+            ))
+            .replace("expr = \"abs(v) <= v_max\"", "expr = \"abs(v) <= 10\"");
+        assert!(text.contains("interval_bounds"));
+        let path = temp_file(&format!("interval-{interval}"), "problem.toml", &text);
+        let (code, stdout, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+        assert_eq!(code, 0, "{stderr}");
+        let r: Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(r["status"], "converged");
+        let vmax = r["trajectory"]["v"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v[0].as_f64().unwrap().abs())
+            .fold(0.0, f64::max);
+        (r["final_time"].as_f64().unwrap(), vmax)
+    };
+    let (t_peaks, v_peaks) = speed_limited(true);
+    assert!(v_peaks <= 0.7 + 1e-6, "{v_peaks}");
+    assert!(t_peaks >= 2.1286 - 1e-3, "{t_peaks}");
+    let (t_nodal, v_nodal) = speed_limited(false);
+    assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{v_nodal} {t_nodal}");
+}
+
 fn bad(tag: &str, from: &str, to: &str, line_col: &str, reason: &str) {
     assert!(PROBLEM.contains(from), "{tag}");
     let path = temp_file(tag, "problem.toml", &PROBLEM.replacen(from, to, 1));

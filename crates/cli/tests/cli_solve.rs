@@ -120,6 +120,35 @@ fn collision_example_converges_and_keeps_clear_of_the_ball() {
     assert!(COLLISION_TASK.contains("[collision]") && !TASK.contains("[collision]"));
 }
 
+/// `velocity_limit_peaks = true` bounds each segment's velocity peak between the nodes: the
+/// demo task converges to a markedly lower final time, and the dense velocities still keep
+/// their limit.
+#[test]
+fn velocity_limit_peaks_reach_a_lower_final_time_within_the_limits() {
+    let solve = |tag: &str, task: &str| {
+        let path = temp_file(tag, "task.toml", task);
+        let out = path.with_file_name("result.json");
+        let (code, _, stderr) =
+            armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+        assert_eq!(code, 0, "{tag}: {stderr}");
+        read_json(&out)
+    };
+    let peaks =
+        TASK.replace("velocity_limit = 3.0", "velocity_limit = 3.0\nvelocity_limit_peaks = true");
+    assert_ne!(peaks, TASK);
+    let (plain, r) = (solve("peaks-off", TASK), solve("peaks-on", &peaks));
+    assert_eq!(r["status"], "converged");
+    let (t0, t1) = (plain["final_time"].as_f64().unwrap(), r["final_time"].as_f64().unwrap());
+    assert!(t1 < t0 - 0.1, "T = {t1} with peaks, {t0} without");
+    let fastest = r["trajectory"]["velocity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap().abs()))
+        .fold(0.0, f64::max);
+    assert!(fastest <= 3.0 + 1e-4, "dense velocity {fastest}");
+}
+
 /// Replaces `from` by `to` in the seed task, writes it, solves it with `-o`, and checks the
 /// exit code, that the message is `file:line:col: …reason…` at the first changed line, and
 /// that no result file appears.

@@ -89,6 +89,10 @@ pub struct State {
     pub terminal: Vec<Boundary>,
     /// Guess, N × size row-major (`None`: the straight line between the boundary values).
     pub guess: Option<Vec<f64>>,
+    /// Also enforce the bounds between the nodes, at each segment's peak on the integration
+    /// grid ([`Ocp::interval_bounds`]): for bounds the motion rides, whose CTCS integral alone
+    /// gives the subproblems no gradient where the trajectory touches them. Default false.
+    pub interval_bounds: bool,
 }
 
 impl State {
@@ -101,6 +105,7 @@ impl State {
             initial: vec![Boundary::Free; size],
             terminal: vec![Boundary::Free; size],
             guess: None,
+            interval_bounds: false,
         }
     }
 
@@ -141,6 +146,12 @@ impl State {
     /// With a guess (N × size, row-major).
     pub fn guess(mut self, g: Vec<f64>) -> Self {
         self.guess = Some(g);
+        self
+    }
+
+    /// With its bounds also enforced between the nodes ([`State::interval_bounds`]).
+    pub fn with_interval_bounds(mut self) -> Self {
+        self.interval_bounds = true;
         self
     }
 }
@@ -620,7 +631,17 @@ impl Problem {
                 .map(|(i, (g, o))| (n_named + i, o.eps, g.first, g.last))
                 .collect(),
             nodal,
-            interval_bounds: Vec::new(),
+            interval_bounds: {
+                let mut rows = Vec::new();
+                let mut offset = 0;
+                for st in &self.states {
+                    if st.interval_bounds {
+                        rows.extend(offset..offset + st.size());
+                    }
+                    offset += st.size();
+                }
+                rows
+            },
         };
         let guess = self.guess(&ocp, n, &settings)?;
         let blocks = |names: Vec<(String, usize)>| {
