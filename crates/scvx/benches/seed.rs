@@ -63,6 +63,12 @@ fn bench(c: &mut Criterion) {
     g.bench_function("discretize", |b| {
         b.iter(|| d.discretize(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
     });
+    // The same with the integration grid recorded (what interval bounds need).
+    let substeps = armature_scvx::DiscretizationSettings::default().substeps;
+    let mut out_g = d.output_with_grid(seed::NODES, substeps);
+    g.bench_function("discretize_with_grid", |b| {
+        b.iter(|| d.discretize(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out_g).unwrap())
+    });
     g.bench_function("defects", |b| {
         b.iter(|| d.defects(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
     });

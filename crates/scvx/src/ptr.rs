@@ -64,7 +64,8 @@
 //! over the columns where the segment's rows are nonlinear; the pairs are
 //! `s = z − z̄`, `y = (A(z) − A(z̄))ᵀλ` with the subproblem's duals λ), and
 //! [`Merit::Lagrangian`] prices a defect by its dual instead of its full ℓ1 weight; together
-//! they reach T = 1.266 s on the same problem.
+//! they reach T = 1.268 s on the same problem. [`Ocp::interval_bounds`] on the velocities
+//! (see "Interval bounds" above) takes the first-order loop itself to T = 1.278 s.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
