@@ -12,6 +12,16 @@ fn example(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples").join(name)
 }
 
+/// The largest |v| on a result's dense trajectory.
+fn fastest(r: &Value) -> f64 {
+    r["trajectory"]["v"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v[0].as_f64().unwrap().abs())
+        .fold(0.0, f64::max)
+}
+
 #[test]
 fn the_double_integrator_problem_file_reaches_the_analytic_time() {
     let (code, stdout, stderr) =
@@ -22,12 +32,7 @@ fn the_double_integrator_problem_file_reaches_the_analytic_time() {
     let tf = r["final_time"].as_f64().unwrap();
     assert!((tf - 2.1286).abs() / 2.1286 < 0.01, "{tf}");
     // The speed limit holds on the dense trajectory (CTCS, ε = 1e-6), the output is there.
-    let vmax = r["trajectory"]["v"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v[0].as_f64().unwrap().abs())
-        .fold(0.0, f64::max);
+    let vmax = fastest(&r);
     assert!(vmax < 0.7 * 1.01, "{vmax}");
     assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);
 }
@@ -51,13 +56,7 @@ fn interval_bounds_hold_a_state_bound_between_the_nodes() {
         assert_eq!(code, 0, "{stderr}");
         let r: Value = serde_json::from_str(&stdout).unwrap();
         assert_eq!(r["status"], "converged");
-        let vmax = r["trajectory"]["v"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v[0].as_f64().unwrap().abs())
-            .fold(0.0, f64::max);
-        (r["final_time"].as_f64().unwrap(), vmax)
+        (r["final_time"].as_f64().unwrap(), fastest(&r))
     };
     let (t_peaks, v_peaks) = speed_limited(true);
     assert!(v_peaks <= 0.7 + 1e-6, "{v_peaks}");

@@ -91,17 +91,20 @@ fn matrices_are_derivatives_of_the_propagation_map() {
 
 /// Double integrator with FOH acceleration: the state is a cubic in τ, which RK4 integrates
 /// exactly, so x_prop equals the closed form to round-off (and one substep suffices).
-#[test]
-fn double_integrator_is_exact() {
+/// `p' = v, v' = a` with a first-order-hold acceleration, on 3 nodes: its segment 0 lasts
+/// T = s·Δτ = 1 s with the acceleration going linearly from 1 to −2.
+fn double_integrator() -> (Dynamics, [f64; 6], [f64; 3], [f64; 3]) {
     let p = Expr::variable("p", 1);
     let v = Expr::variable("v", 1);
     let a = Expr::variable("a", 1);
-    let d = Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
-        .unwrap();
+    let d = Dynamics::new(&[p, v.clone()], &[a.clone()], &[v, a], &[true]).unwrap();
+    (d, [0.3, -0.2, 0.0, 0.0, 0.0, 0.0], [1.0, -2.0, 0.5], [2.0, 0.5, 0.5])
+}
+
+#[test]
+fn double_integrator_is_exact() {
+    let (d, x, u, s) = double_integrator();
     let nodes = 3;
-    let x = [0.3, -0.2, 0.0, 0.0, 0.0, 0.0];
-    let u = [1.0, -2.0, 0.5];
-    let s = [2.0, 0.5, 0.5];
     for substeps in [1, 4] {
         let mut ws = d.workspace();
         let mut out = d.output(nodes);
@@ -430,15 +433,8 @@ fn grid_records_the_trajectory_and_its_sensitivities_between_nodes() {
 /// Dormand–Prince (whose steps are clipped to land on the grid).
 #[test]
 fn grid_points_are_exact_on_the_double_integrator_with_both_integrators() {
-    let p = Expr::variable("p", 1);
-    let v = Expr::variable("v", 1);
-    let a = Expr::variable("a", 1);
-    let d = Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), a.clone()], &[true])
-        .unwrap();
+    let (d, x, u, s) = double_integrator();
     let nodes = 3;
-    let x = [0.3, -0.2, 0.0, 0.0, 0.0, 0.0];
-    let u = [1.0, -2.0, 0.5];
-    let s = [2.0, 0.5, 0.5];
     let substeps = 5;
     for settings in [
         DiscretizationSettings { substeps, ..Default::default() },
