@@ -1334,8 +1334,8 @@ impl Ptr {
         }
         // Interval bounds: the worst peak of each state row over the segments (the node is
         // the segment's first).
+        self.eval_peaks(&st.dbar, &mut st.ev, &zeros);
         let nb = self.buffers.len();
-        let stride = self.ocp.dynamics.grid_stride();
         let mut rows: Vec<usize> = self.peaks.iter().map(|p| p.r).collect();
         rows.sort_unstable();
         rows.dedup();
@@ -1349,11 +1349,9 @@ impl Ptr {
                 node: None,
             };
             for (i, p) in self.peaks.iter().enumerate().filter(|(_, p)| p.r == r) {
-                let v = peak(&st.dbar, stride, p).0;
-                st.ev.violation[nb + i] = v.max(0.0);
-                if v.max(0.0) > worst.value || worst.node.is_none() {
-                    worst.value = worst.value.max(v.max(0.0));
-                    worst.node = Some(p.seg);
+                let v = st.ev.violation[nb + i];
+                if v > worst.value || worst.node.is_none() {
+                    (worst.value, worst.node) = (v, Some(p.seg));
                 }
             }
             out.push(worst);
