@@ -230,8 +230,11 @@ pub enum Merit {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SubproblemSolver {
-    /// [`crate::ipm::InteriorPoint`], warm-started from the previous subproblem, with
-    /// Clarabel as the fallback whenever it does not reach the tolerance.
+    /// [`crate::ipm::InteriorPoint`], warm-started from the previous subproblem. A solve
+    /// that does not reach the tolerance at a heavy trust-region weight (λ_tr > 1e3, which
+    /// can leave the KKT matrix too badly scaled for its refined directions) is retried cold
+    /// with the objective divided by λ_tr, and the rest of the run then solves scaled;
+    /// otherwise, or if that fails too, Clarabel solves the subproblem.
     InteriorPoint,
     /// Clarabel for every subproblem (cold starts: Clarabel has no warm start).
     Clarabel,
@@ -260,8 +263,9 @@ pub struct SubproblemSettings {
     pub refinement_tolerance: f64,
     /// Clarabel's iteration cap. Default 200.
     pub max_iterations: u32,
-    /// The native interior point's iteration cap; when it is reached, Clarabel solves the
-    /// subproblem instead. Default 50 (the seed problem's subproblems take 6–21).
+    /// The native interior point's iteration cap; when it is reached, the native solver
+    /// retries with the objective scaled, then Clarabel solves the subproblem instead.
+    /// Default 50 (the seed problem's subproblems take 6–21).
     pub interior_point_max_iterations: u32,
     /// Clarabel's Ruiz equilibration. Default on. (The native solver works on the scaled
     /// data as given.)
@@ -543,6 +547,10 @@ struct PeakRow {
     /// Its coefficients: offsets into a grid block (`[x, Φ, B⁻, B⁺]`), in `peak_src`.
     src: std::ops::Range<usize>,
 }
+
+/// λ_tr above which a failed native solve is retried with the objective divided by λ_tr
+/// (see `solve_subproblem`).
+const HEAVY_TRUST_REGION: f64 = 1e3;
 
 /// Scale of the initial quasi-Newton block, `γ·S⁻²` with `γ` this times Nocedal and
 /// Wright's `‖y‖²/yᵀs` (in the trust-region scaling): their estimate sits near the largest
@@ -1234,6 +1242,7 @@ impl Ptr {
             ipm.reset();
         }
         st.hess_ready.fill(false);
+        st.scale_objective = false;
         st.history.clear();
         st.history.reserve(self.settings.max_iterations);
         st.status = None;
@@ -1442,6 +1451,9 @@ impl Ptr {
             ipm_unusable: false,
             sol_x: vec![0.0; self.n_vars],
             sol_z: vec![0.0; self.b.len()],
+            p_scaled: vec![0.0; self.p_rowval.len()],
+            q_scaled: vec![0.0; self.n_vars],
+            scale_objective: false,
         }
     }
 
@@ -1723,7 +1735,8 @@ impl Ptr {
     }
 
     /// Solve the assembled subproblem into `st.sol_x`/`st.sol_z`: the native interior point
-    /// (warm-started) when chosen, Clarabel otherwise or when the native solve fails.
+    /// (warm-started; retried with the objective scaled when it fails) when chosen, Clarabel
+    /// otherwise or when the native solves fail.
     fn solve_subproblem(
         &self,
         st: &mut Iterate,
@@ -1736,13 +1749,37 @@ impl Ptr {
             st.ipm_unusable = st.ipm.is_none();
         }
         if let (SubproblemSolver::InteriorPoint, Some(ipm)) = (set.solver, st.ipm.as_mut()) {
-            let status = ipm.solve(&st.pvals, &st.q, &st.nz, &st.b);
-            record.subproblem_iterations += ipm.iterations();
-            if status == IpmStatus::Solved {
-                record.subproblem_status = "Solved";
-                st.sol_x.copy_from_slice(ipm.x());
-                st.sol_z.copy_from_slice(ipm.z());
-                return Ok(());
+            // The objective as given, unless a solve of this run already needed it scaled:
+            // then divided by λ_tr. A heavy trust-region weight leaves the KKT matrix too
+            // badly scaled for the refined directions, and the iterates creep to the cap.
+            // The minimizer is the same; the duals scale back. A failure at a lighter λ_tr
+            // goes to Clarabel as it is.
+            let sigma = st.lam_tr.max(1.0);
+            let mut scaled = st.scale_objective;
+            loop {
+                let s = if scaled { sigma } else { 1.0 };
+                for (d, v) in st.p_scaled.iter_mut().zip(&st.pvals) {
+                    *d = v / s;
+                }
+                for (d, v) in st.q_scaled.iter_mut().zip(&st.q) {
+                    *d = v / s;
+                }
+                let status = ipm.solve(&st.p_scaled, &st.q_scaled, &st.nz, &st.b);
+                record.subproblem_iterations += ipm.iterations();
+                if status == IpmStatus::Solved {
+                    record.subproblem_status = "Solved";
+                    st.sol_x.copy_from_slice(ipm.x());
+                    for (d, z) in st.sol_z.iter_mut().zip(ipm.z()) {
+                        *d = z * s;
+                    }
+                    st.scale_objective |= scaled;
+                    return Ok(());
+                }
+                if scaled || sigma <= HEAVY_TRUST_REGION {
+                    break;
+                }
+                scaled = true;
+                ipm.reset();
             }
         }
         // Clarabel: in-place update when the solver exists (same pattern); rebuild if that
@@ -2144,6 +2181,11 @@ struct Iterate {
     ipm: Option<InteriorPoint>,
     /// The native solver could not take this pattern (Clarabel is used throughout).
     ipm_unusable: bool,
+    /// The objective handed to the native solver (scaled to unit size once a solve needed
+    /// it: `scale_objective`).
+    p_scaled: Vec<f64>,
+    q_scaled: Vec<f64>,
+    scale_objective: bool,
 
     sol_x: Vec<f64>,
     sol_z: Vec<f64>,
