@@ -578,6 +578,8 @@ struct NodalEval {
     violation: Vec<f64>,
     /// Coefficients of the interval-bound rows (`Source::Peak`) at the last `fill_peaks`.
     peak_vals: Vec<f64>,
+    /// Each interval-bound row's `sign·x̂ − bound` at the last `fill_peaks`.
+    peak_g: Vec<f64>,
 }
 
 /// Where one nodal constraint row sits: its evaluation block and its subproblem row.
@@ -1074,11 +1076,13 @@ impl Ptr {
     }
 
     /// The interval-bound rows' coefficients at `d` (with its grid sensitivities) into
-    /// `ev.peak_vals`: `sign·Σ w_i ∂x_r(t_i)/∂z` over the peak's stencil.
+    /// `ev.peak_vals`: `sign·Σ w_i ∂x_r(t_i)/∂z` over the peak's stencil; their values
+    /// `sign·x̂ − bound` into `ev.peak_g`.
     fn fill_peaks(&self, d: &Discretization, ev: &mut NodalEval) {
         let stride = self.ocp.dynamics.grid_stride();
-        for p in &self.peaks {
-            let (_, first, w) = peak(d, stride, p);
+        for (i, p) in self.peaks.iter().enumerate() {
+            let (g, first, w) = peak(d, stride, p);
+            ev.peak_g[i] = g;
             let base = (p.seg * d.grid_points + first) * stride;
             for q in p.src.clone() {
                 let off = base + self.peak_src[q];
@@ -1421,6 +1425,7 @@ impl Ptr {
                 jac: vec![0.0; self.g_len.1],
                 violation: vec![0.0; self.buffers.len() + self.peaks.len()],
                 peak_vals: vec![0.0; self.peak_src.len()],
+                peak_g: vec![0.0; self.peaks.len()],
             },
             lam_vc: vec![0.0; n],
             lam_vb: vec![0.0; self.buffers.len() + self.peaks.len()],
@@ -1490,9 +1495,8 @@ impl Ptr {
             let g = st.ev.values[self.g_offsets[nr.eval].0 + nr.output];
             st.b[nr.row] = if nr.cone { g } else { -g };
         }
-        let stride = self.ocp.dynamics.grid_stride();
-        for p in &self.peaks {
-            st.b[p.row] = -peak(&st.dbar, stride, p).0;
+        for (p, g) in self.peaks.iter().zip(&st.ev.peak_g) {
+            st.b[p.row] = -g;
         }
         st.q.fill(0.0);
         for k in 0..nn - 1 {
@@ -1758,13 +1762,17 @@ impl Ptr {
             let mut scaled = st.scale_objective;
             loop {
                 let s = if scaled { sigma } else { 1.0 };
-                for (d, v) in st.p_scaled.iter_mut().zip(&st.pvals) {
-                    *d = v / s;
-                }
-                for (d, v) in st.q_scaled.iter_mut().zip(&st.q) {
-                    *d = v / s;
-                }
-                let status = ipm.solve(&st.p_scaled, &st.q_scaled, &st.nz, &st.b);
+                let status = if scaled {
+                    for (d, v) in st.p_scaled.iter_mut().zip(&st.pvals) {
+                        *d = v / s;
+                    }
+                    for (d, v) in st.q_scaled.iter_mut().zip(&st.q) {
+                        *d = v / s;
+                    }
+                    ipm.solve(&st.p_scaled, &st.q_scaled, &st.nz, &st.b)
+                } else {
+                    ipm.solve(&st.pvals, &st.q, &st.nz, &st.b)
+                };
                 record.subproblem_iterations += ipm.iterations();
                 if status == IpmStatus::Solved {
                     record.subproblem_status = "Solved";
@@ -2181,8 +2189,8 @@ struct Iterate {
     ipm: Option<InteriorPoint>,
     /// The native solver could not take this pattern (Clarabel is used throughout).
     ipm_unusable: bool,
-    /// The objective handed to the native solver (scaled to unit size once a solve needed
-    /// it: `scale_objective`).
+    /// The objective divided by λ_tr for the native solver, once a solve needed it
+    /// (`scale_objective`).
     p_scaled: Vec<f64>,
     q_scaled: Vec<f64>,
     scale_objective: bool,
