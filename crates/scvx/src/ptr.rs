@@ -1037,9 +1037,16 @@ impl Ptr {
         Ok(count)
     }
 
-    /// Evaluates every nodal constraint at `(x, u)` into the buffers (values, Jacobians and
-    /// per-buffer violations); returns `(Σ w·violation, largest violation)`.
-    fn eval_nodal(&self, x: &[f64], u: &[f64], ev: &mut NodalEval, weights: &[f64]) -> (f64, f64) {
+    /// Evaluates every nodal constraint at `(x, u)` into the buffers (values, with `jac` their
+    /// Jacobians, and per-buffer violations); returns `(Σ w·violation, largest violation)`.
+    fn eval_nodal(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        ev: &mut NodalEval,
+        weights: &[f64],
+        jac: bool,
+    ) -> (f64, f64) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
         let mut e = 0;
         for (ci, c) in self.ocp.nodal.iter().enumerate() {
@@ -1048,9 +1055,10 @@ impl Ptr {
                 ev.input[..n].copy_from_slice(&x[k * n..(k + 1) * n]);
                 ev.input[n..n + m].copy_from_slice(&u[k * m..(k + 1) * m]);
                 let (vo, jo) = self.g_offsets[e];
-                let (vals, jac) = (&mut ev.values[vo..vo + nout], &mut ev.jac[jo..jo + nnz]);
+                let vals = &mut ev.values[vo..vo + nout];
+                let jac = jac.then(|| &mut ev.jac[jo..jo + nnz]);
                 // Compiled against the dynamics' groups: evaluation cannot fail on sizes.
-                if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, Some(jac)).is_err() {
+                if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, jac).is_err() {
                     vals.fill(f64::INFINITY);
                 }
                 e += 1;
@@ -1151,7 +1159,7 @@ impl Ptr {
         let n = self.ocp.dynamics.n_x();
         let l1: f64 = d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum();
         let max = d.defect.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let (viol, max_viol) = self.eval_nodal(x, u, ev, lam_vb);
+        let (viol, max_viol) = self.eval_nodal(x, u, ev, lam_vb, false);
         let (pviol, max_pviol) = self.eval_peaks(d, ev, lam_vb);
         (self.cost(x, tf) + l1 + viol + pviol, tf, max, max_viol.max(max_pviol))
     }
@@ -1326,7 +1334,7 @@ impl Ptr {
             });
         }
         let zeros = vec![0.0; st.lam_vb.len()];
-        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &zeros);
+        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &zeros, false);
         let mut i = 0;
         for c in &self.ocp.nodal {
             let per_node = match c.kind {
@@ -1472,7 +1480,7 @@ impl Ptr {
         // A copy (plain numbers, no allocation), so `self` stays free for the evaluations.
         let set = &self.settings.clone();
         // Values of this linearization.
-        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb);
+        self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb, true);
         self.fill_peaks(&st.dbar, &mut st.ev);
         fill_values(&self.sources, &st.dbar, &st.ev, &st.ev.peak_vals, &mut st.nz);
         // Deviation form: the unknowns are Δz = z − z̄ (ν and buffers keep their values), so
@@ -1838,6 +1846,9 @@ impl Ptr {
     }
 
     fn update_hessian(&self, st: &mut Iterate) {
+        // The constraint Jacobians at the candidate (its merit needed their values only).
+        let (u0, s0, _, _) = self.layout();
+        self.eval_nodal(&st.zc[..u0], &st.zc[u0..s0], &mut st.ev, &st.lam_vb, true);
         self.fill_peaks(&st.dcand, &mut st.ev);
         fill_values(&self.sources, &st.dcand, &st.ev, &st.ev.peak_vals, &mut st.nz_new);
         for (e, el) in self.elements.iter().enumerate() {
