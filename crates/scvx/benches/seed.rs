@@ -72,6 +72,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("defects", |b| {
         b.iter(|| d.defects(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
     });
+    // The collision variant's dynamics: its clearance penalties are inactive almost everywhere.
+    let sc = seed::build_with(seed::Variant { collision: true, interval_bounds: false });
+    let dc = &sc.ocp.dynamics;
+    let (mut wsc, mut outc) = (dc.workspace(), dc.output(seed::NODES));
+    g.bench_function("discretize_collision", |b| {
+        b.iter(|| {
+            dc.discretize(&sc.x, &sc.u, &sc.s, &Default::default(), &mut wsc, &mut outc).unwrap()
+        })
+    });
     g.finish();
 }
 

@@ -160,14 +160,22 @@ pub struct DiscretizationWorkspace {
 /// One lane's scratch.
 #[derive(Debug, Clone)]
 struct Lane {
-    fws: Workspace,
-    input: Vec<f64>,
-    fval: Vec<f64>,
-    jac: Vec<f64>,
+    f: FEval,
     v: Vec<f64>,
     /// Stage derivatives (RK4 uses the first four, Dormand–Prince all seven).
     k: [Vec<f64>; 7],
     tmp: Vec<f64>,
+}
+
+/// Scratch of one evaluation of the dynamics `f(x, u)`.
+#[derive(Debug, Clone)]
+struct FEval {
+    ws: Workspace,
+    input: Vec<f64>,
+    fval: Vec<f64>,
+    jac: Vec<f64>,
+    /// The rows whose derivatives the segment needs (its gated rows are not).
+    needed: Vec<bool>,
 }
 
 /// One lane's share of a [`Discretization`]: its first segment and its output slices.
@@ -401,10 +409,13 @@ impl Dynamics {
         let (n, m) = (self.n_x, self.n_u + 1);
         let len = n + n * n + 2 * n * m;
         Lane {
-            fws: self.f.workspace(),
-            input: vec![0.0; n + self.n_u],
-            fval: vec![0.0; n],
-            jac: vec![0.0; self.f.jacobian_pattern().nnz()],
+            f: FEval {
+                ws: self.f.workspace(),
+                input: vec![0.0; n + self.n_u],
+                fval: vec![0.0; n],
+                jac: vec![0.0; self.f.jacobian_pattern().nnz()],
+                needed: vec![true; n],
+            },
             v: vec![0.0; len],
             k: std::array::from_fn(|_| vec![0.0; len]),
             tmp: vec![0.0; len],
@@ -429,11 +440,11 @@ impl Dynamics {
         let points = grid.len() / stride;
         // The next grid point to land on (steps are clipped to reach it exactly).
         let mut next = 1;
-        let Lane { fws, input, fval, jac, v, k, tmp } = ws;
+        let Lane { f, v, k, tmp } = ws;
         let mut t = 0.0;
         let mut h = first_step.min(dtau);
         // k[0] = f(t, v) (first same as last: refreshed from k[6] after each accepted step).
-        self.rhs(v, 0.0, uk, uk1, sk, seg, fws, input, fval, jac, &mut k[0], full)?;
+        self.rhs(v, 0.0, (uk, uk1, sk, seg), f, &mut k[0], full)?;
         let mut steps = 0;
         while t < dtau * (1.0 - 1e-14) {
             steps += 1;
@@ -462,20 +473,7 @@ impl Dynamics {
                     tmp[i] = acc;
                 }
                 let beta = (t + DP_C[stage] * h) / dtau;
-                self.rhs(
-                    tmp,
-                    beta.min(1.0),
-                    uk,
-                    uk1,
-                    sk,
-                    seg,
-                    fws,
-                    input,
-                    fval,
-                    jac,
-                    &mut k[stage],
-                    full,
-                )?;
+                self.rhs(tmp, beta.min(1.0), (uk, uk1, sk, seg), f, &mut k[stage], full)?;
             }
             // tmp holds the 5th-order solution (stage 7's argument); error on the state part.
             let mut err = 0.0;
@@ -545,26 +543,20 @@ impl Dynamics {
     }
 
     /// Time derivative of the augmented vector `V = [x, Φ, B⁻, B⁺]` at normalised segment
-    /// time `beta` (β of the FOH), into `dv`; with `full` false, of the state `x` alone
-    /// (`dv[..n]`).
-    #[allow(clippy::too_many_arguments)]
+    /// time `beta` (β of the FOH) on segment `seg` (controls `uk`, `uk1`, dilation `s`),
+    /// into `dv`; with `full` false, of the state `x` alone (`dv[..n]`).
     fn rhs(
         &self,
         v: &[f64],
         beta: f64,
-        uk: &[f64],
-        uk1: &[f64],
-        s: f64,
-        seg: usize,
-        fws: &mut Workspace,
-        input: &mut [f64],
-        fval: &mut [f64],
-        jac: &mut [f64],
+        (uk, uk1, s, seg): (&[f64], &[f64], f64, usize),
+        fe: &mut FEval,
         dv: &mut [f64],
         full: bool,
     ) -> Result<(), DiscretizationError> {
         let (n, mu) = (self.n_x, self.n_u);
         let m = mu + 1;
+        let FEval { ws: fws, input, fval, jac, needed } = fe;
         input[..n].copy_from_slice(&v[..n]);
         for i in 0..mu {
             input[n + i] = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
@@ -582,16 +574,19 @@ impl Dynamics {
             }
             return Ok(());
         }
-        self.f.eval(input, fws, fval, Some(jac))?;
-        // Gated rows (inactive CTCS integrands on this segment): zero value and derivatives.
+        // Gated rows (inactive CTCS integrands on this segment) are not differentiated, nor
+        // penalties whose constraints all hold here (their derivatives are zero): see
+        // `Function::eval_pruned`.
+        needed.fill(true);
         for &(row, first, end) in &self.gates {
             if seg < first || seg >= end {
-                fval[row] = 0.0;
-                for (v, &r) in jac.iter_mut().zip(&self.rows) {
-                    if r == row {
-                        *v = 0.0;
-                    }
-                }
+                needed[row] = false;
+            }
+        }
+        self.f.eval_pruned(input, fws, fval, jac, Some(needed))?;
+        for (v, &need) in fval.iter_mut().zip(needed.iter()) {
+            if !need {
+                *v = 0.0;
             }
         }
         dv.fill(0.0);
@@ -683,7 +678,7 @@ impl Dynamics {
             let h = duration / steps as f64;
             let mut f =
                 |x: &[f64], beta: f64, out: &mut [f64]| -> Result<(), DiscretizationError> {
-                    let Lane { fws, input, fval, .. } = &mut ws;
+                    let FEval { ws: fws, input, fval, .. } = &mut ws.f;
                     input[..n].copy_from_slice(x);
                     for i in 0..mu {
                         input[n + i] =
@@ -897,25 +892,26 @@ impl Dynamics {
             if let Integrator::DormandPrince { rtol, atol } = integrator {
                 self.dormand_prince((rtol, atol), h, dtau, (uk, uk1, sk, seg), ws, full, grid)?;
             } else {
-                let Lane { fws, input, fval, jac, v, k, tmp } = &mut *ws;
+                let Lane { f, v, k, tmp } = &mut *ws;
                 let [k0, k1, k2, k3, ..] = k;
+                let seg_data = (uk, uk1, sk, seg);
                 for step in 0..substeps {
                     let b0 = step as f64 / substeps as f64;
                     let bh = (step as f64 + 0.5) / substeps as f64;
                     let b1 = (step as f64 + 1.0) / substeps as f64;
-                    self.rhs(v, b0, uk, uk1, sk, seg, fws, input, fval, jac, k0, full)?;
+                    self.rhs(v, b0, seg_data, f, k0, full)?;
                     for i in 0..len {
                         tmp[i] = v[i] + 0.5 * h * k0[i];
                     }
-                    self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k1, full)?;
+                    self.rhs(tmp, bh, seg_data, f, k1, full)?;
                     for i in 0..len {
                         tmp[i] = v[i] + 0.5 * h * k1[i];
                     }
-                    self.rhs(tmp, bh, uk, uk1, sk, seg, fws, input, fval, jac, k2, full)?;
+                    self.rhs(tmp, bh, seg_data, f, k2, full)?;
                     for i in 0..len {
                         tmp[i] = v[i] + h * k2[i];
                     }
-                    self.rhs(tmp, b1, uk, uk1, sk, seg, fws, input, fval, jac, k3, full)?;
+                    self.rhs(tmp, b1, seg_data, f, k3, full)?;
                     for i in 0..len {
                         v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
                     }

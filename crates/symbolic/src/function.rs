@@ -18,7 +18,8 @@ pub enum DerivativeMode {
     Auto,
     /// Each scalar carries only the input columns it depends on (scales with sparsity).
     Sparse,
-    /// Each scalar carries a full gradient row (branch-free; best for few inputs).
+    /// Each scalar carries a full gradient row (branch-free; best for few inputs). Up to
+    /// [`DENSE_MAX_INPUTS`] inputs; sparse beyond.
     Dense,
 }
 
@@ -97,7 +98,8 @@ impl Function {
     }
 
     /// [`compile`](Self::compile) with an explicit [`DerivativeMode`]. `Dense` falls back to
-    /// sparse for functions that contain a `vmap`.
+    /// sparse for functions that contain a `vmap` or have more than [`DENSE_MAX_INPUTS`]
+    /// inputs.
     ///
     /// # Errors
     /// As [`compile`](Self::compile).
@@ -165,7 +167,7 @@ impl Function {
             && match mode {
                 DerivativeMode::Auto => offset <= DENSE_MAX_INPUTS,
                 DerivativeMode::Sparse => false,
-                DerivativeMode::Dense => true,
+                DerivativeMode::Dense => offset <= DENSE_MAX_INPUTS,
             };
         Ok(Function {
             dense,
@@ -285,6 +287,98 @@ impl Function {
         values: &mut [f64],
         jacobian: Option<&mut [f64]>,
     ) -> Result<(), SymbolicError> {
+        self.check(input, ws, values, jacobian.as_deref().map(<[f64]>::len))?;
+        if self.dense {
+            self.tape.run_dense(input, &self.param_values, ws, jacobian.is_some());
+        } else {
+            self.tape.run(input, &self.param_values, ws, jacobian.is_some());
+        }
+        self.read_values(ws, values);
+        if let Some(jac) = jacobian {
+            self.read_jacobian(ws, jac, None);
+        }
+        Ok(())
+    }
+
+    /// Like [`eval`](Self::eval) with the Jacobian, for outputs that often have exactly
+    /// zero derivatives: the value of every output, and the Jacobian rows of the outputs
+    /// marked in `needed` (all if `None`); the other rows' entries are set to zero.
+    ///
+    /// Derivatives are propagated only along paths that reach a needed output through
+    /// nonzero local partials. An inactive ReLU (`pos`, `squared_pos` at x ≤ 0), the
+    /// operand `max` / `min` did not select, and a factor multiplied by an exact zero cut
+    /// the paths through them, so a penalty `Σ pos(g_i)` whose constraints all hold costs
+    /// little more than its value. The result equals [`eval`](Self::eval)'s on the needed
+    /// rows. For a function with few inputs (dense derivative rows, see
+    /// [`is_dense`](Self::is_dense)) nothing is pruned: the rows are computed by `eval`.
+    ///
+    /// Cost: one value pass, one backward marking pass, then the derivative work of the
+    /// instructions on needed paths (their local partials recomputed). When every path is
+    /// needed that is about 1.2× [`eval`](Self::eval); on the seed arm's dynamics, whose
+    /// CTCS penalties are mostly inactive, about half.
+    ///
+    /// # Errors
+    /// [`SymbolicError::BufferLength`] if a buffer (or `needed`) has the wrong length.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_symbolic::{Expr, Function};
+    /// let x = Expr::variable("x", 2);
+    /// // One output that is a penalty of x₀ − 1 and one that is x₁²: at x₀ = 0.5 the penalty
+    /// // is inactive, and its row of the Jacobian is zero without being propagated.
+    /// let f = Function::compile(&[(x.at(0) - 1.0).pos(), x.at(1) * x.at(1)], &[&[x]]).unwrap();
+    /// let mut ws = f.workspace();
+    /// let (mut v, mut j) = ([0.0; 2], vec![0.0; f.jacobian_pattern().nnz()]);
+    /// f.eval_pruned(&[0.5, 3.0], &mut ws, &mut v, &mut j, None).unwrap();
+    /// assert_eq!(v, [0.0, 9.0]);
+    /// assert_eq!(j, [0.0, 6.0]);
+    /// // Only the second row: the first row's entries are zero whatever its value.
+    /// f.eval_pruned(&[2.0, 3.0], &mut ws, &mut v, &mut j, Some(&[false, true])).unwrap();
+    /// assert_eq!((v, j.as_slice()), ([1.0, 9.0], [0.0, 6.0].as_slice()));
+    /// ```
+    pub fn eval_pruned(
+        &self,
+        input: &[f64],
+        ws: &mut Workspace,
+        values: &mut [f64],
+        jacobian: &mut [f64],
+        needed: Option<&[bool]>,
+    ) -> Result<(), SymbolicError> {
+        self.check(input, ws, values, Some(jacobian.len()))?;
+        if let Some(m) = needed
+            && m.len() != self.outputs.len()
+        {
+            return Err(SymbolicError::BufferLength {
+                what: "needed",
+                expected: self.outputs.len(),
+                got: m.len(),
+            });
+        }
+        let is_needed = |k: usize| needed.is_none_or(|m| m[k]);
+        if self.dense {
+            self.tape.run_dense(input, &self.param_values, ws, true);
+        } else {
+            ws.active.fill(false);
+            for (k, a) in self.outputs.iter().enumerate() {
+                if let (Arg::Slot(s), true) = (*a, is_needed(k)) {
+                    ws.active[s as usize] = true;
+                }
+            }
+            self.tape.run_pruned(input, &self.param_values, ws);
+        }
+        self.read_values(ws, values);
+        self.read_jacobian(ws, jacobian, needed);
+        Ok(())
+    }
+
+    /// Buffer lengths and the workspace's tape.
+    fn check(
+        &self,
+        input: &[f64],
+        ws: &Workspace,
+        values: &[f64],
+        jacobian: Option<usize>,
+    ) -> Result<(), SymbolicError> {
         let check = |what, expected: usize, got: usize| {
             if expected == got {
                 Ok(())
@@ -294,42 +388,49 @@ impl Function {
         };
         check("input", self.n_inputs, input.len())?;
         check("values", self.outputs.len(), values.len())?;
-        if let Some(j) = &jacobian {
-            check("jacobian", self.pattern.nnz(), j.len())?;
+        if let Some(j) = jacobian {
+            check("jacobian", self.pattern.nnz(), j)?;
         }
         if ws.tape_id != self.tape.id {
             return Err(SymbolicError::ForeignWorkspace);
         }
-        if self.dense {
-            self.tape.run_dense(input, &self.param_values, ws, jacobian.is_some());
-        } else {
-            self.tape.run(input, &self.param_values, ws, jacobian.is_some());
-        }
+        Ok(())
+    }
+
+    /// The output values after a run.
+    fn read_values(&self, ws: &Workspace, values: &mut [f64]) {
         for (v, a) in values.iter_mut().zip(&self.outputs) {
             *v = match *a {
                 Arg::Const(c) => c,
                 Arg::Slot(s) => ws.val[s as usize],
             };
         }
-        if let Some(jac) = jacobian {
-            for (k, a) in self.outputs.iter().enumerate() {
-                if let Arg::Slot(s) = *a {
-                    let pos =
-                        &self.jac_pos[self.jac_start[k] as usize..self.jac_start[k + 1] as usize];
-                    if self.dense {
-                        let row = &ws.dval[s as usize * self.tape.dense_stride()..];
-                        for (&c, &p) in self.tape.deps(s).iter().zip(pos) {
-                            jac[p as usize] = row[c as usize];
-                        }
-                    } else {
-                        let base = self.tape.dep_off[s as usize] as usize;
-                        for (j, &p) in pos.iter().enumerate() {
-                            jac[p as usize] = ws.dval[base + j];
-                        }
+    }
+
+    /// The Jacobian's nonzeros after a run with derivatives; the rows not `needed` are zero.
+    fn read_jacobian(&self, ws: &Workspace, jac: &mut [f64], needed: Option<&[bool]>) {
+        for (k, a) in self.outputs.iter().enumerate() {
+            let pos = &self.jac_pos[self.jac_start[k] as usize..self.jac_start[k + 1] as usize];
+            let slot = match *a {
+                Arg::Slot(s) if needed.is_none_or(|m| m[k]) => s,
+                _ => {
+                    for &p in pos {
+                        jac[p as usize] = 0.0;
                     }
+                    continue;
+                }
+            };
+            if self.dense {
+                let row = &ws.dval[slot as usize * self.tape.dense_stride()..];
+                for (&c, &p) in self.tape.deps(slot).iter().zip(pos) {
+                    jac[p as usize] = row[c as usize];
+                }
+            } else {
+                let base = self.tape.dep_off[slot as usize] as usize;
+                for (j, &p) in pos.iter().enumerate() {
+                    jac[p as usize] = ws.dval[base + j];
                 }
             }
         }
-        Ok(())
     }
 }

@@ -159,6 +159,9 @@ pub struct Workspace {
     pub(crate) dval: Vec<f64>,
     pub(crate) scratch: Vec<f64>,
     pub(crate) sub: Vec<Workspace>,
+    /// Per slot, whether a pruned evaluation propagates its derivative
+    /// ([`Tape::run_pruned`]).
+    pub(crate) active: Vec<bool>,
 }
 
 impl Tape {
@@ -196,6 +199,7 @@ impl Tape {
             dval: vec![0.0; self.dep_cols.len()],
             scratch: vec![0.0; scratch_len + 256],
             sub: self.vmaps.iter().map(|v| v.tape.workspace()).collect(),
+            active: vec![false; self.n_slots()],
         }
     }
 
@@ -278,6 +282,174 @@ impl Tape {
                     }
                 }
             }
+        }
+    }
+
+    /// Values of every slot, then derivatives only where they can reach a slot marked in
+    /// `ws.active` (the caller marks the output slots it needs): a slot's derivative is
+    /// propagated when some consumer on such a path has a nonzero local partial with respect
+    /// to it. An inactive ReLU (`pos`, `sqpos` at x ≤ 0), the unselected operand of `max` /
+    /// `min` and a factor multiplied by an exact zero cut the paths through them. The needed
+    /// slots get exactly the derivatives [`run`](Self::run) computes (a cut path contributes
+    /// partial × derivative = 0 there); the others are not computed.
+    pub(crate) fn run_pruned(&self, input: &[f64], params: &[f64], ws: &mut Workspace) {
+        self.run(input, params, ws, false);
+        self.mark_active(ws);
+        self.derivatives(ws);
+    }
+
+    /// Backward pass of [`run_pruned`](Self::run_pruned): from the marked outputs, marks the
+    /// operands each marked instruction differentiates with a nonzero partial.
+    fn mark_active(&self, ws: &mut Workspace) {
+        let (val, act) = (&ws.val, &mut ws.active);
+        let v = |s: u32| val[s as usize];
+        for ins in self.instrs.iter().rev() {
+            match *ins {
+                Instr::Input { .. } | Instr::Param { .. } => {}
+                Instr::Unary { op, x, out } => {
+                    if act[out as usize] && !unary_partial_is_zero(op, v(x)) {
+                        act[x as usize] = true;
+                    }
+                }
+                Instr::SinCos { x, out } => {
+                    if act[out as usize] || act[out as usize + 1] {
+                        act[x as usize] = true;
+                    }
+                }
+                Instr::Add { x, y, out, .. } | Instr::Sub { x, y, out, .. } => {
+                    if act[out as usize] {
+                        act[x as usize] = true;
+                        act[y as usize] = true;
+                    }
+                }
+                Instr::Mul { x, y, out, .. } => {
+                    if act[out as usize] {
+                        // ∂(xy)/∂x = y, ∂(xy)/∂y = x.
+                        act[x as usize] |= v(y) != 0.0;
+                        act[y as usize] |= v(x) != 0.0;
+                    }
+                }
+                Instr::Binary { op, x, y, out, .. } => {
+                    if act[out as usize] {
+                        let (ux, uy) = binary_operands_used(op, v(x), v(y));
+                        act[x as usize] |= ux;
+                        act[y as usize] |= uy;
+                    }
+                }
+                Instr::Reduce { a0, n, out, .. } => {
+                    if act[out as usize] {
+                        for &a in &self.args[a0 as usize..(a0 + n) as usize] {
+                            act[a as usize] = true;
+                        }
+                    }
+                }
+                Instr::Lie { a0, n, out, nout, .. }
+                | Instr::Vmap { a0, n, out, nout, .. }
+                | Instr::External { a0, n, out, nout, .. } => {
+                    if act[out as usize..(out + nout) as usize].iter().any(|&a| a) {
+                        for &a in &self.args[a0 as usize..(a0 + n) as usize] {
+                            act[a as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Forward derivative pass of [`run_pruned`](Self::run_pruned) over the marked
+    /// instructions (values are in place; local partials are recomputed from them).
+    fn derivatives(&self, ws: &mut Workspace) {
+        let off = &self.dep_off;
+        for ins in &self.instrs {
+            match *ins {
+                Instr::Input { out, .. } => {
+                    if ws.active[out as usize] {
+                        ws.dval[off[out as usize] as usize] = 1.0;
+                    }
+                }
+                Instr::Param { .. } => {}
+                Instr::Unary { op, x, out } => {
+                    if ws.active[out as usize] {
+                        if ws.active[x as usize] {
+                            let p = op.eval(ws.val[x as usize]).1;
+                            self.scale(ws, x, out, p);
+                        } else {
+                            self.clear(ws, out);
+                        }
+                    }
+                }
+                Instr::SinCos { x, out } => {
+                    if ws.active[out as usize] || ws.active[out as usize + 1] {
+                        let (sn, cs) = (ws.val[out as usize], ws.val[out as usize + 1]);
+                        self.scale(ws, x, out, cs);
+                        self.scale(ws, x, out + 1, -sn);
+                    }
+                }
+                Instr::Add { x, y, out, mx, my } => {
+                    if ws.active[out as usize] {
+                        self.binary_derivative(ws, x, y, out, mx, my, 1.0, 1.0);
+                    }
+                }
+                Instr::Sub { x, y, out, mx, my } => {
+                    if ws.active[out as usize] {
+                        self.binary_derivative(ws, x, y, out, mx, my, 1.0, -1.0);
+                    }
+                }
+                Instr::Mul { x, y, out, mx, my } => {
+                    if ws.active[out as usize] {
+                        let (a, b) = (ws.val[x as usize], ws.val[y as usize]);
+                        self.clear_inactive(ws, x);
+                        self.clear_inactive(ws, y);
+                        self.binary_derivative(ws, x, y, out, mx, my, b, a);
+                    }
+                }
+                Instr::Binary { op, x, y, out, mx, my } => {
+                    if ws.active[out as usize] {
+                        let (_, pa, pb) = op.eval(ws.val[x as usize], ws.val[y as usize]);
+                        self.clear_inactive(ws, x);
+                        self.clear_inactive(ws, y);
+                        self.binary_derivative(ws, x, y, out, mx, my, pa, pb);
+                    }
+                }
+                Instr::Reduce { op, a0, n, out, maps } => {
+                    if ws.active[out as usize] {
+                        let args = &self.args[a0 as usize..(a0 + n) as usize];
+                        reduce_value(op, args, &ws.val, &mut ws.scratch);
+                        self.scatter_multi(ws, a0, n, out, 1, maps);
+                    }
+                }
+                Instr::Lie { op, a0, n, out, nout, maps } => {
+                    if ws.active[out as usize..(out + nout) as usize].iter().any(|&a| a) {
+                        self.eval_lie(op, a0, n, out, nout, ws);
+                        self.scatter_multi(ws, a0, n, out, nout, maps);
+                    }
+                }
+                Instr::Vmap { body, a0, n, out, nout, maps } => {
+                    if ws.active[out as usize..(out + nout) as usize].iter().any(|&a| a) {
+                        self.eval_vmap(body, a0, n, out, nout, maps, ws, true);
+                    }
+                }
+                Instr::External { func, a0, n, out, nout, maps } => {
+                    if ws.active[out as usize..(out + nout) as usize].iter().any(|&a| a) {
+                        self.eval_external(func, a0, n, out, nout, ws);
+                        self.scatter_multi(ws, a0, n, out, nout, maps);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Zero derivative of `slot`.
+    fn clear(&self, ws: &mut Workspace, slot: u32) {
+        let (o, n) = self.range(slot);
+        ws.dval[o..o + n].fill(0.0);
+    }
+
+    /// Zero derivative of an operand the pruned pass did not differentiate (its partial is
+    /// zero; the stale value it holds must not reach the product).
+    fn clear_inactive(&self, ws: &mut Workspace, slot: u32) {
+        if !ws.active[slot as usize] {
+            self.clear(ws, slot);
         }
     }
 
@@ -680,6 +852,26 @@ impl Tape {
     }
 }
 
+/// Whether `op`'s derivative at `x` is exactly zero for a reason a pruned evaluation can
+/// use (an inactive ReLU), matching [`UnaryOp::eval`].
+fn unary_partial_is_zero(op: UnaryOp, x: f64) -> bool {
+    // `x > 0` is false for NaN too, as in `eval`.
+    let positive = x > 0.0;
+    matches!(op, UnaryOp::Pos | UnaryOp::SquaredPos) && !positive
+}
+
+/// Which operands of `op` at `(x, y)` have a partial that may be nonzero (the selected one of
+/// `max` / `min`, matching [`BinaryOp::eval`]; both otherwise).
+fn binary_operands_used(op: BinaryOp, x: f64, y: f64) -> (bool, bool) {
+    // The comparisons `eval` makes (false with a NaN, which then selects y).
+    let selects_x = match op {
+        BinaryOp::Max => x >= y,
+        BinaryOp::Min => x <= y,
+        _ => return (true, true),
+    };
+    (selects_x, !selects_x)
+}
+
 /// Value of a reduction, and its partials into `partials[0..args.len()]`.
 fn reduce_value(op: Reduce, args: &[u32], val: &[f64], partials: &mut [f64]) -> f64 {
     match op {
@@ -742,6 +934,7 @@ impl Workspace {
             dval: Vec::new(),
             scratch: Vec::new(),
             sub: Vec::new(),
+            active: Vec::new(),
         }
     }
 }
