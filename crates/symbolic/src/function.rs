@@ -313,9 +313,11 @@ impl Function {
     /// [`is_dense`](Self::is_dense)) nothing is pruned: the rows are computed by `eval`.
     ///
     /// Cost: one value pass, one backward marking pass, then the derivative work of the
-    /// instructions on needed paths (their local partials recomputed). When every path is
-    /// needed that is about 1.2× [`eval`](Self::eval); on the seed arm's dynamics, whose
-    /// CTCS penalties are mostly inactive, about half.
+    /// instructions on needed paths (their local partials recomputed). On the seed arm's
+    /// dynamics (350 instructions; forward kinematics shared by four CTCS penalties), one
+    /// evaluation takes 1.6 µs instead of [`eval`](Self::eval)'s 2.2 µs where the penalties
+    /// are inactive and 2.7 µs where they are active; a whole discretization of the seed
+    /// trajectory, 8 % less time.
     ///
     /// # Errors
     /// [`SymbolicError::BufferLength`] if a buffer (or `needed`) has the wrong length.
