@@ -19,12 +19,9 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
-    // The quasi-Newton path converges in about 100 iterations (70 to 101 across solver
-    // revisions): a cap of 200 so that the bench times a converged solve.
     let qn = PtrSettings {
         quasi_newton: true,
         merit: Merit::Lagrangian { sigma: 0.5 },
-        max_iterations: 200,
         ..PtrSettings::default()
     };
     let mut ptr_qn = Ptr::new(s.ocp.clone(), qn);

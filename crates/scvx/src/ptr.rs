@@ -184,7 +184,9 @@ pub struct PtrSettings {
     pub eps_defect: f64,
     /// How the trust-region weight evolves. Default `Adaptive { eta: [0, 0.1, 0.5] }`.
     pub trust_region: TrustRegionUpdate,
-    /// Iteration cap. Default 100.
+    /// Iteration cap. Default 200 (OpenSCvx's `k_max`): over λ_tr ∈ {0.5, 1, 2} × substeps
+    /// ∈ {8, 10, 12} around the defaults, the seed arm's first-order solves converge in 23 to
+    /// 178 iterations (5 of those 18 runs take more than 100).
     pub max_iterations: usize,
     /// Integrator settings.
     pub discretization: DiscretizationSettings,
@@ -396,7 +398,7 @@ impl Default for PtrSettings {
             eps_tr: 1e-6,
             eps_defect: 1e-6,
             trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.5] },
-            max_iterations: 100,
+            max_iterations: 200,
             discretization: DiscretizationSettings::default(),
             subproblem: SubproblemSettings::default(),
             dense_dt: 0.01,

@@ -85,11 +85,10 @@ fn quasi_newton_reaches_a_lower_final_time() {
     let s = seed::build();
     // The quasi-Newton path takes more iterations than the first-order one, and how many
     // moves with the subproblem solutions' last digits (its BFGS pairs use the duals): it has
-    // converged in 70 to 101 across solver revisions, so the cap is not the default 100.
+    // converged in 70 to 101 across solver revisions (the default cap is 200).
     let settings = PtrSettings {
         quasi_newton: true,
         merit: Merit::Lagrangian { sigma: 0.5 },
-        max_iterations: 200,
         ..PtrSettings::default()
     };
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
