@@ -2,30 +2,17 @@
 //! same values and, on the needed rows, the same Jacobian as `eval` (zero on the others);
 //! and the pruning is real: an inactive penalty's operands are not differentiated.
 
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use armature_symbolic::{DerivativeMode, Expr, ExternalFunction, Function};
+use common::Rng;
 use proptest::prelude::*;
 
 /// Inputs: enough for sparse mode to be the automatic choice as well.
 const N: usize = 20;
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // splitmix64
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
 
 /// A random scalar expression over `x` mixing smooth and pruning operations: ReLUs of
 /// shifted subtrees (active or not depending on the point), `max`/`min`, products with an

@@ -6,7 +6,7 @@ mod common;
 
 use armature_lie::{SE3, SO3};
 use armature_symbolic::{DerivativeMode, Expr, Function, Shape};
-use common::{dense_jacobian, fd_jacobian};
+use common::{Rng, dense_jacobian, fd_jacobian};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector6};
 use proptest::prelude::*;
 
@@ -55,23 +55,6 @@ enum B {
     Sub,
     Mul,
     DivOnePlusSq, // a / (1 + b²)
-}
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn f(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
 }
 
 const V3: Shape = Shape::Vector(3);
