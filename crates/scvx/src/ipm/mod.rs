@@ -48,7 +48,7 @@ mod scaling;
 
 use crate::sparse::Rows;
 use kkt::ReducedKkt;
-use scaling::{Scaling, push_inside, shift_into_cone, step_length};
+use scaling::{Scaling, push_inside, push_inside_socs, shift_into_cone, step_length};
 
 /// Largest second-order cone handled (scaling works on fixed-size arrays).
 pub const MAX_SOC: usize = 8;
@@ -74,10 +74,19 @@ pub struct IpmSettings {
     /// 20 % of the subproblem time for no change in the iterates PTR sees.
     pub refinement_steps: u32,
     /// Warm start: after a first solve, start from x = 0 (the subproblem's deviation form),
-    /// the previous duals and s = b, each pushed this far inside its cone; 0 starts cold every
+    /// the previous duals and s = b, each pushed this far inside its cone (for nonnegative
+    /// rows, see [`warm_start_centring`](Self::warm_start_centring)); 0 starts cold every
     /// time. Default 1e-2: on the 74 quasi-Newton subproblems of the seed solve, 36 % fewer
     /// iterations than cold starts (1e-3 and 1e-1 do slightly worse).
     pub warm_start_margin: f64,
+    /// Warm start of a nonnegative row: its complementarity product `s·z` is raised to at
+    /// least μ₀ by raising its dual (z ≥ μ₀/s), and the slack of a row the previous solve
+    /// held active (dual above the slack, product above μ₀, b ≥ 0) is placed at
+    /// `max(b, μ₀/z)` instead of the margin: every row starts near the same point of the
+    /// central path, and active rows close to their true slack. Default 3e-3: on the seed
+    /// arm's four first-order solves, 11–20 % fewer interior-point iterations than pushing
+    /// both s and z by the margin, with the same PTR iterates (μ₀ = 1e-3 and 1e-2 save less).
+    pub warm_start_centring: f64,
 }
 
 impl Default for IpmSettings {
@@ -88,6 +97,7 @@ impl Default for IpmSettings {
             regularization: 1e-9,
             refinement_steps: 1,
             warm_start_margin: 1e-2,
+            warm_start_centring: 3e-3,
         }
     }
 }
@@ -415,14 +425,24 @@ impl InteriorPoint {
     }
 
     /// Warm start: x = 0 (PTR's deviation form), the previous duals and s = b, each pushed
-    /// at least θ inside its cone.
+    /// at least θ inside its cone; nonnegative rows centred at μ₀ (see
+    /// [`IpmSettings::warm_start_centring`]).
     fn start_warm(&mut self, b: &[f64]) {
         let (m0, theta) = (self.cones.zero, self.settings.warm_start_margin);
+        let mu0 = self.settings.warm_start_centring;
         self.x.fill(0.0);
         self.s[..m0].fill(0.0);
         self.s[m0..].copy_from_slice(&b[m0..]);
         push_inside(&mut self.s[m0..], &self.cones, theta);
-        push_inside(&mut self.z[m0..], &self.cones, theta);
+        let nonneg = m0..m0 + self.cones.nonneg;
+        for ((s, z), &b) in self.s[nonneg.clone()].iter_mut().zip(&mut self.z[nonneg]).zip(&b[m0..])
+        {
+            if b >= 0.0 && *z > *s && *z * *s > mu0 {
+                *s = (mu0 / *z).max(b);
+            }
+            *z = z.max(mu0 / *s);
+        }
+        push_inside_socs(&mut self.z[m0 + self.cones.nonneg..], &self.cones.soc, theta);
     }
 
     /// Cold start: with W = I, the least-squares point of the KKT system

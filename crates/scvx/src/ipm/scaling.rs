@@ -190,8 +190,13 @@ pub(super) fn push_inside(v: &mut [f64], cones: &Cones, theta: f64) {
     for x in &mut v[..cones.nonneg] {
         *x = x.max(theta);
     }
-    let mut r = cones.nonneg;
-    for &d in &cones.soc {
+    push_inside_socs(&mut v[cones.nonneg..], &cones.soc, theta);
+}
+
+/// [`push_inside`] for second-order cones of dimensions `socs` only (`v` their rows).
+pub(super) fn push_inside_socs(v: &mut [f64], socs: &[usize], theta: f64) {
+    let mut r = 0;
+    for &d in socs {
         let tail = norm(&v[r + 1..r + d]);
         if v[r] - tail < theta {
             v[r] = tail + theta;
