@@ -99,20 +99,19 @@ fn clarabel(pr: &Problem, tol: f64) -> (Vec<f64>, f64) {
 
 /// Ours and Clarabel's solve at tolerance `tol` (ours with two refinement steps, which
 /// tolerances below 1e-8 want).
-fn solve_both(pr: &Problem, tol: f64) -> (InteriorPoint, IpmStatus, Vec<f64>, f64) {
+/// The settings of these tests: a tolerance, two refinement steps.
+fn settings(tolerance: f64) -> IpmSettings {
+    IpmSettings { tolerance, refinement_steps: 2, ..IpmSettings::default() }
+}
+
+fn solve_both(pr: &Problem, settings: IpmSettings) -> (InteriorPoint, IpmStatus, Vec<f64>, f64) {
     let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
     let (ac, ar, av) = csc(pr.m, pr.n, &pr.a, false);
-    let mut ipm = InteriorPoint::new(
-        pr.n,
-        (&pc, &prw),
-        pr.m,
-        (&ac, &ar),
-        pr.cones.clone(),
-        IpmSettings { tolerance: tol, refinement_steps: 2, ..IpmSettings::default() },
-    )
-    .unwrap();
+    let mut ipm =
+        InteriorPoint::new(pr.n, (&pc, &prw), pr.m, (&ac, &ar), pr.cones.clone(), settings.clone())
+            .unwrap();
     let status = ipm.solve(&pv, &pr.q, &av, &pr.b);
-    let (x, obj) = clarabel(pr, tol);
+    let (x, obj) = clarabel(pr, settings.tolerance);
     (ipm, status, x, obj)
 }
 
@@ -121,7 +120,7 @@ proptest! {
     #[test]
     fn agrees_with_clarabel(pr in problem()) {
         // Both at 1e-9: the minimizer is then pinned to about 1e-4 (|Δx|² ≲ 2·gap, P ⪰ I).
-        let (ipm, status, x, obj) = solve_both(&pr, 1e-9);
+        let (ipm, status, x, obj) = solve_both(&pr, settings(1e-9));
         prop_assert_eq!(status, IpmStatus::Solved);
         for (a, b) in ipm.x().iter().zip(&x) {
             prop_assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{:?} vs {:?}", ipm.x(), x);
@@ -137,27 +136,30 @@ proptest! {
 /// iterations. After `reset`, the solve is cold again.
 #[test]
 fn warm_start_saves_iterations_and_reset_forgets_it() {
-    let mut runner = proptest::test_runner::TestRunner::deterministic();
-    let mut saved = 0;
-    for _ in 0..20 {
-        let pr = problem().new_tree(&mut runner).unwrap().current();
-        let (mut ipm, status, x, _) = solve_both(&pr, 1e-8);
-        assert_eq!(status, IpmStatus::Solved);
-        let cold = ipm.iterations();
-        let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
-        let (_, _, av) = csc(pr.m, pr.n, &pr.a, false);
-        let _ = (pc, prw);
-        // The deviation form a PTR re-solve sees: x = 0 is a sensible start.
-        assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
-        for (a, b) in ipm.x().iter().zip(&x) {
-            assert!((a - b).abs() < 1e-3 * (1.0 + b.abs()), "{a} vs {b}");
+    // The default warm start (nonnegative rows centred) and the plain margin push.
+    for centring in [IpmSettings::default().warm_start_centring, 0.0] {
+        let mut runner = proptest::test_runner::TestRunner::deterministic();
+        let mut saved = 0;
+        for _ in 0..20 {
+            let pr = problem().new_tree(&mut runner).unwrap().current();
+            let set = IpmSettings { warm_start_centring: centring, ..settings(1e-8) };
+            let (mut ipm, status, x, _) = solve_both(&pr, set);
+            assert_eq!(status, IpmStatus::Solved);
+            let cold = ipm.iterations();
+            let (_, _, pv) = csc(pr.n, pr.n, &pr.p, true);
+            let (_, _, av) = csc(pr.m, pr.n, &pr.a, false);
+            // The deviation form a PTR re-solve sees: x = 0 is a sensible start.
+            assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
+            for (a, b) in ipm.x().iter().zip(&x) {
+                assert!((a - b).abs() < 1e-3 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+            saved += i64::from(cold) - i64::from(ipm.iterations());
+            ipm.reset();
+            assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
+            assert_eq!(ipm.iterations(), cold, "reset makes the next solve cold");
         }
-        saved += i64::from(cold) - i64::from(ipm.iterations());
-        ipm.reset();
-        assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
-        assert_eq!(ipm.iterations(), cold, "reset makes the next solve cold");
+        assert!(saved > 0, "centring {centring}: warm starts saved {saved} iterations over 20");
     }
-    assert!(saved > 0, "warm starts saved {saved} iterations over 20 problems");
 }
 
 fn solve_dense(

@@ -30,8 +30,8 @@
 //! refined against the full, unreduced Newton system: the reduction amplifies errors in Δx by
 //! W⁻² in Δz as the iterates approach the cone boundaries. The predictor's is not: it only
 //! sets the centring, through its step to the boundary and the gap there (refining it too
-//! cost 5–12 % more subproblem time on the seed arm, for the same first-order PTR iterates). GᵀW⁻²G is accumulated from a list of products fixed by the
-//! sparsity pattern (for a cone, from W⁻¹G: W⁻² itself loses its small eigenvalue to
+//! cost 5–12 % more subproblem time on the seed arm, for the same first-order PTR iterates).
+//! GᵀW⁻²G is accumulated from a list of products fixed by the sparsity pattern (for a cone, from W⁻¹G: W⁻² itself loses its small eigenvalue to
 //! cancellation near the boundary), so a solve allocates nothing.
 //!
 //! After a first solve, the next one starts warm (see [`IpmSettings::warm_start_margin`]):
@@ -86,6 +86,7 @@ pub struct IpmSettings {
     /// central path, and active rows close to their true slack. Default 3e-3: on the seed
     /// arm's four first-order solves, 11–20 % fewer interior-point iterations than pushing
     /// both s and z by the margin, with the same PTR iterates (μ₀ = 1e-3 and 1e-2 save less).
+    /// 0 (or less) pushes the duals by the margin like the slacks.
     pub warm_start_centring: f64,
 }
 
@@ -437,10 +438,14 @@ impl InteriorPoint {
         let nonneg = m0..m0 + self.cones.nonneg;
         for ((s, z), &b) in self.s[nonneg.clone()].iter_mut().zip(&mut self.z[nonneg]).zip(&b[m0..])
         {
-            if b >= 0.0 && *z > *s && *z * *s > mu0 {
-                *s = (mu0 / *z).max(b);
+            if mu0 > 0.0 {
+                if b >= 0.0 && *z > *s && *z * *s > mu0 {
+                    *s = (mu0 / *z).max(b);
+                }
+                *z = z.max(mu0 / *s);
+            } else {
+                *z = z.max(theta);
             }
-            *z = z.max(mu0 / *s);
         }
         push_inside_socs(&mut self.z[m0 + self.cones.nonneg..], &self.cones.soc, theta);
     }
