@@ -594,17 +594,22 @@ impl Dynamics {
             dv[r] = s * fval[r];
         }
         let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * m);
-        // A·[Φ | B⁻ | B⁺] through the CSC columns of ∂f/∂x, scaled by s.
+        // A·[Φ | B⁻ | B⁺] through the CSC columns of ∂f/∂x, scaled by s (entries that are zero
+        // here, such as an inactive penalty's, are skipped).
+        let axpy = |dst: &mut [f64], a: f64, src: &[f64]| {
+            for (d, x) in dst.iter_mut().zip(src) {
+                *d += a * x;
+            }
+        };
         for j in 0..n {
             for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                if jac[p] == 0.0 {
+                    continue;
+                }
                 let (r, a) = (self.rows[p], s * jac[p]);
-                for c in 0..n {
-                    dv[phi0 + r * n + c] += a * v[phi0 + j * n + c];
-                }
-                for c in 0..m {
-                    dv[bm0 + r * m + c] += a * v[bm0 + j * m + c];
-                    dv[bp0 + r * m + c] += a * v[bp0 + j * m + c];
-                }
+                axpy(&mut dv[phi0 + r * n..][..n], a, &v[phi0 + j * n..][..n]);
+                axpy(&mut dv[bm0 + r * m..][..m], a, &v[bm0 + j * m..][..m]);
+                axpy(&mut dv[bp0 + r * m..][..m], a, &v[bp0 + j * m..][..m]);
             }
         }
         // Control columns: s ∂f/∂u · diag(α) into B⁻, · diag(β) into B⁺.
@@ -899,21 +904,22 @@ impl Dynamics {
                     let b0 = step as f64 / substeps as f64;
                     let bh = (step as f64 + 0.5) / substeps as f64;
                     let b1 = (step as f64 + 1.0) / substeps as f64;
+                    // tmp = v + c·k over the first `len` entries.
+                    let stage = |tmp: &mut [f64], v: &[f64], c: f64, k: &[f64]| {
+                        for ((t, x), d) in tmp[..len].iter_mut().zip(&v[..len]).zip(&k[..len]) {
+                            *t = x + c * d;
+                        }
+                    };
                     self.rhs(v, b0, seg_data, f, k0, full)?;
-                    for i in 0..len {
-                        tmp[i] = v[i] + 0.5 * h * k0[i];
-                    }
+                    stage(tmp, v, 0.5 * h, k0);
                     self.rhs(tmp, bh, seg_data, f, k1, full)?;
-                    for i in 0..len {
-                        tmp[i] = v[i] + 0.5 * h * k1[i];
-                    }
+                    stage(tmp, v, 0.5 * h, k1);
                     self.rhs(tmp, bh, seg_data, f, k2, full)?;
-                    for i in 0..len {
-                        tmp[i] = v[i] + h * k2[i];
-                    }
+                    stage(tmp, v, h, k2);
                     self.rhs(tmp, b1, seg_data, f, k3, full)?;
-                    for i in 0..len {
-                        v[i] += h / 6.0 * (k0[i] + 2.0 * k1[i] + 2.0 * k2[i] + k3[i]);
+                    let ks = k0[..len].iter().zip(&k1[..len]).zip(&k2[..len]).zip(&k3[..len]);
+                    for (x, (((a, b), c), d)) in v[..len].iter_mut().zip(ks) {
+                        *x += h / 6.0 * (a + 2.0 * b + 2.0 * c + d);
                     }
                     if !grid.is_empty() {
                         let at = (step + 1) * stride;
