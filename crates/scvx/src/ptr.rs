@@ -235,8 +235,9 @@ pub enum SubproblemSolver {
     /// [`crate::ipm::InteriorPoint`], warm-started from the previous subproblem. A solve
     /// that does not reach the tolerance at a heavy trust-region weight (λ_tr > 1e3, which
     /// can leave the KKT matrix too badly scaled for its refined directions) is retried cold
-    /// with the objective divided by λ_tr, and the rest of the run then solves scaled;
-    /// otherwise, or if that fails too, Clarabel solves the subproblem.
+    /// with the objective divided by λ_tr (and its absolute gap tolerance alike, see
+    /// [`crate::ipm::InteriorPoint::set_objective_scale`]), and the rest of the run then
+    /// solves scaled; otherwise, or if that fails too, Clarabel solves the subproblem.
     InteriorPoint,
     /// Clarabel for every subproblem (cold starts: Clarabel has no warm start).
     Clarabel,
@@ -1772,6 +1773,8 @@ impl Ptr {
             let mut scaled = st.scale_objective;
             loop {
                 let s = if scaled { sigma } else { 1.0 };
+                // The same accuracy in the original units: the gap tolerance scales too.
+                ipm.set_objective_scale(s);
                 let status = if scaled {
                     for (d, v) in st.p_scaled.iter_mut().zip(&st.pvals) {
                         *d = v / s;

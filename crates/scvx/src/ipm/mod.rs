@@ -197,6 +197,8 @@ pub struct InteriorPoint {
     m: usize,
     cones: Cones,
     settings: IpmSettings,
+    /// Divisor of the absolute gap tolerance (see [`InteriorPoint::set_objective_scale`]).
+    objective_scale: f64,
     p_colptr: Vec<usize>,
     p_rowval: Vec<usize>,
     a_colptr: Vec<usize>,
@@ -305,6 +307,7 @@ impl InteriorPoint {
             iterations: 0,
             objective: f64::NAN,
             has_solution: false,
+            objective_scale: 1.0,
         })
     }
 
@@ -326,6 +329,20 @@ impl InteriorPoint {
     /// Primal objective ½xᵀPx + qᵀx at the last iterate.
     pub fn objective(&self) -> f64 {
         self.objective
+    }
+
+    /// Declares that the objectives of the next solves are the original one divided by
+    /// `scale` (default 1; anything not finite and positive means 1). The absolute gap
+    /// tolerance becomes `tolerance / scale`, so a solution is as accurate in the original
+    /// objective's units as an unscaled solve would be.
+    ///
+    /// Dividing a heavy objective (PTR's trust-region weight λ_tr ≥ 1e3) keeps the KKT
+    /// system well conditioned, but it divides the linear prices too. With the tolerance
+    /// unchanged, a variable priced at `c` in the original units ends at about
+    /// `gap · scale / c` instead of 0: on the seed arm, virtual controls of 1e-6 at
+    /// λ_tr ≈ 1e5, which kept PTR from meeting its defect tolerance until λ_tr reached its cap.
+    pub fn set_objective_scale(&mut self, scale: f64) {
+        self.objective_scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
     }
 
     /// Forget the last solution: the next solve starts cold.
@@ -375,7 +392,8 @@ impl InteriorPoint {
             let gap = (res.pobj - res.dobj).abs().max(res.gap);
             if res.primal <= tol * 1f64.max(bn + xn + inf_norm(&self.s))
                 && res.dual <= tol * 1f64.max(qn + xn)
-                && (gap <= tol || gap <= tol * res.pobj.abs().min(res.dobj.abs()))
+                && (gap <= tol / self.objective_scale
+                    || gap <= tol * res.pobj.abs().min(res.dobj.abs()))
             {
                 self.has_solution = true;
                 return IpmStatus::Solved;
