@@ -219,9 +219,11 @@ pub enum Merit {
     /// Second-order defects of a good step count at full price (the Maratos effect), which
     /// keeps steps short.
     ExactPenalty,
-    /// `J − Σ (1 − σ)·λ_vc,i·|defect_i| − Σ y_i·defect_i` with the dynamics duals `y` of the
-    /// current subproblem: the first-order cost of repairing each defect at the next
-    /// iteration replaces most of its ℓ1 price (σ keeps a fraction).
+    /// `J − Σ (1 − σ)·λ_vc,i·|defect_i| − Σ ŷ_i·defect_i` with the dynamics duals `y` of the
+    /// current subproblem clipped to `ŷ_i ∈ [−σλ_vc,i, σλ_vc,i]`: the first-order cost of
+    /// repairing each defect at the next iteration replaces most of its ℓ1 price (σ keeps a
+    /// fraction). The clip keeps each defect's price nonnegative, so the merit is bounded
+    /// below (with the raw duals a row whose dual exceeds σλ_vc rewards a growing defect).
     Lagrangian {
         /// Fraction σ ∈ [0, 1] of the ℓ1 price kept.
         sigma: f64,
@@ -1598,10 +1600,7 @@ impl Ptr {
         let (lam_vc, duals) = (&st.lam_vc, &st.duals);
         let adj = |d: &[f64]| -> f64 {
             let Merit::Lagrangian { sigma } = set.merit else { return 0.0 };
-            d.iter()
-                .enumerate()
-                .map(|(i, di)| (sigma - 1.0) * lam_vc[i % n] * di.abs() - duals[i] * di)
-                .sum()
+            lagrangian_shift(d, duals, lam_vc, sigma)
         };
         let phibar = st.jbar + adj(&st.dbar.defect);
         let phi = jc + adj(&st.dcand.defect);
@@ -1926,6 +1925,26 @@ pub struct SubproblemDimensions {
     pub reduced_kkt_nonzeros: Option<(usize, usize)>,
 }
 
+/// The Lagrangian merit's shift of the ℓ1 merit for the defects `d` (state rows cycle with
+/// period `lam_vc.len()`): per row `(σ − 1)·λ·|d| − ŷ·d`, with the dual `y` clipped to
+/// `ŷ ∈ [−σλ, σλ]`. The row's merit term `λ|d| + shift` then lies in `[0, 2σλ|d|]`: never
+/// negative, so the merit stays bounded below. With the raw dual it is
+/// `σλ|d| − y·d`, which decreases without bound along `sign(y)` wherever `|y| > σλ` — on the
+/// seed's collision CTCS row (dual ≈ 2000, price ≈ 2500, σ = 0.5) steps that grew that
+/// row's defect were accepted as improvements until the trust region hit its cap, and the
+/// run ended at the iteration cap, infeasible.
+fn lagrangian_shift(d: &[f64], duals: &[f64], lam_vc: &[f64], sigma: f64) -> f64 {
+    let n = lam_vc.len();
+    d.iter()
+        .zip(duals)
+        .enumerate()
+        .map(|(i, (di, yi))| {
+            let l = lam_vc[i % n];
+            (sigma - 1.0) * l * di.abs() - yi.clamp(-sigma * l, sigma * l) * di
+        })
+        .sum()
+}
+
 /// Powell's damped BFGS update of the symmetric positive-definite `h` (`d×d`, row-major)
 /// with the step `s` and the gradient difference `y`: `y` is replaced by
 /// `r = θy + (1 − θ)Hs` with θ < 1 only when `sᵀy < 0.2·sᵀHs`, so `sᵀr ≥ 0.2·sᵀHs > 0` and
@@ -2228,7 +2247,7 @@ impl std::fmt::Debug for Iterate {
 
 #[cfg(test)]
 mod tests {
-    use super::damped_bfgs;
+    use super::{damped_bfgs, lagrangian_shift};
     use proptest::prelude::*;
 
     /// The interval-bound rows' coefficients are the derivatives of their peaks: central
@@ -2337,6 +2356,33 @@ mod tests {
     }
 
     proptest! {
+        /// Each row's Lagrangian-merit term `λ|d| + shift` lies in `[0, 2σλ|d|]` whatever the
+        /// dual (a dual beyond σλ is clipped), and where `|y| ≤ σλ` the shift is the unclipped
+        /// `(σ − 1)λ|d| − y·d`.
+        #[test]
+        fn the_lagrangian_merit_prices_every_defect_nonnegatively(
+            rows in prop::collection::vec((-1.0f64..1.0, -5.0f64..5.0, 0.1f64..4.0), 1..12),
+            sigma in 0.0f64..=1.0,
+        ) {
+            for &(d, y, lam) in &rows {
+                let shift = lagrangian_shift(&[d], &[y], &[lam], sigma);
+                let term = lam * d.abs() + shift;
+                let tol = 1e-12 * (1.0 + lam * d.abs());
+                prop_assert!(term >= -tol && term <= 2.0 * sigma * lam * d.abs() + tol, "{term}");
+                if y.abs() <= sigma * lam {
+                    let raw = (sigma - 1.0) * lam * d.abs() - y * d;
+                    prop_assert!((shift - raw).abs() <= tol);
+                }
+            }
+            // Rows cycle through the per-state prices.
+            let (d, y): (Vec<f64>, Vec<f64>) = rows.iter().map(|r| (r.0, r.1)).unzip();
+            let lam: Vec<f64> = rows.iter().map(|r| r.2).collect();
+            let twice: Vec<f64> = d.iter().chain(&d).copied().collect();
+            let yy: Vec<f64> = y.iter().chain(&y).copied().collect();
+            let one = lagrangian_shift(&d, &y, &lam, sigma);
+            prop_assert!((lagrangian_shift(&twice, &yy, &lam, sigma) - 2.0 * one).abs() <= 1e-9);
+        }
+
         /// Undamped (positive curvature) the update satisfies the secant equation H⁺s = y;
         /// with any pair it stays symmetric positive definite.
         #[test]

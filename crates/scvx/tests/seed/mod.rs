@@ -291,6 +291,31 @@ pub struct Checks {
     pub min_clearance: (f64, String),
 }
 
+impl Checks {
+    /// The acceptance test's task criteria (waypoints within 1 cm, orientation within 5° /
+    /// 0.1°, joint, velocity and table limits within 1e-4 on the dense trajectory and, with
+    /// `collision`, no penetration): the first one missed, if any.
+    pub fn missed(&self, collision: bool) -> Option<String> {
+        let deg = |d: f64| d.to_radians() + 1e-6;
+        if self.waypoint_error > 0.01 + 1e-6 {
+            Some(format!("waypoint off by {:.4} m", self.waypoint_error))
+        } else if self.orientation_error[0] > deg(5.0) || self.orientation_error[1] > deg(0.1) {
+            Some(format!("orientation off by {:.3?} rad", self.orientation_error))
+        } else if self.joint_violation > 1e-4 || self.velocity_violation > 1e-4 {
+            Some(format!(
+                "limits violated by {:.1e} / {:.1e}",
+                self.joint_violation, self.velocity_violation
+            ))
+        } else if self.table_violation > 1e-4 {
+            Some(format!("table violated by {:.1e}", self.table_violation))
+        } else if collision && self.min_clearance.0 <= 0.0 {
+            Some(format!("{} penetrates by {:.4} m", self.min_clearance.1, -self.min_clearance.0))
+        } else {
+            None
+        }
+    }
+}
+
 /// Waypoint `w`'s current position (its parameter's value in the problem).
 pub fn waypoint(ocp: &Ocp, w: usize) -> nalgebra::Vector3<f64> {
     let name = waypoint_parameter(w);
