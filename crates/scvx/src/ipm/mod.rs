@@ -339,7 +339,7 @@ impl InteriorPoint {
     /// Dividing a heavy objective (PTR's trust-region weight λ_tr ≥ 1e3) keeps the KKT
     /// system well conditioned, but it divides the linear prices too. With the tolerance
     /// unchanged, a variable priced at `c` in the original units ends at about
-    /// `gap · scale / c` instead of 0: on the seed arm, virtual controls of 1e-6 at
+    /// `gap · scale / c` instead of 0: on the seed arm, virtual controls of about 2e-6 at
     /// λ_tr ≈ 1e5, which kept PTR from meeting its defect tolerance until λ_tr reached its cap.
     pub fn set_objective_scale(&mut self, scale: f64) {
         self.objective_scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
