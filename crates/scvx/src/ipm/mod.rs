@@ -432,6 +432,15 @@ impl InteriorPoint {
                 self.scaling.corrector(sigma * mu, &self.tmp, &self.tmp, &mut self.u);
                 self.direction(p, a, true);
                 alpha = (0.99 * self.step_to_boundary()).min(1.0);
+                // A long centring step can still raise the gap through its second-order
+                // term α²·ΔsᵀΔz, and the iterates then cycle between the cone boundaries
+                // (one random problem in about 10⁵ did, forever). Shorten it until the gap
+                // does not grow: the first-order decrease α(1 − σ)·gap wins for small α.
+                let mut halvings = 0;
+                while self.gap_after(alpha) > res.gap && halvings < 30 {
+                    alpha *= 0.5;
+                    halvings += 1;
+                }
             }
             for (x, d) in self.x.iter_mut().zip(&self.dx) {
                 *x += alpha * d;
