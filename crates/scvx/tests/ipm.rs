@@ -26,7 +26,7 @@ fn csc(rows: usize, cols: usize, dense: &[f64], upper: bool) -> (Vec<usize>, Vec
     (cp, rv, v)
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Problem {
     n: usize,
     m: usize,
@@ -435,6 +435,67 @@ fn a_cycling_centring_step_is_shortened() {
         assert!((u - v).abs() < 1e-4, "{:?} vs {x:?}", ipm.x());
     }
     assert!((ipm.objective() - obj).abs() < 1e-6);
+}
+
+/// A warm start far from the new problem's central path: after solving this QP, the same
+/// one with q and b moved a little (as consecutive PTR subproblems move) jammed from its
+/// warm start: the steps to the boundary collapsed and it reached the iteration cap (found by
+/// re-solving 40 000 perturbed random problems warm: 2 of those a cold solve solves jammed).
+/// After three short steps in a row the solver now restarts cold, and solves it like a cold
+/// solve does.
+#[test]
+fn a_jammed_warm_start_restarts_cold() {
+    let pr = Problem {
+        n: 2,
+        m: 6,
+        p: vec![1.9734621756263968, -0.15577979671139744, -0.15577979671139744, 1.121268730616585],
+        q: vec![-0.6438576255074477, 0.6679702074920006],
+        a: vec![
+            -0.08164652097018182,
+            0.6470949490533179,
+            -0.49687726822160594,
+            -0.2654058287038733,
+            0.24895679106016316,
+            0.6976097203141562,
+            -0.042997681058347594,
+            0.7402212785041307,
+            -0.4577444755685366,
+            0.3312066035842014,
+            -0.3153428851701424,
+            0.7616336280507783,
+        ],
+        b: vec![
+            -0.046174339897147997,
+            0.5667834718929422,
+            0.8232402998875663,
+            0.3436623091888693,
+            0.7243285940101464,
+            0.7705170987588408,
+        ],
+        cones: Cones { zero: 1, nonneg: 2, soc: vec![3] },
+    };
+    let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
+    let (ac, ar, av) = csc(pr.m, pr.n, &pr.a, false);
+    let new = || {
+        InteriorPoint::new(2, (&pc, &prw), 6, (&ac, &ar), pr.cones.clone(), IpmSettings::default())
+            .unwrap()
+    };
+    let mut ipm = new();
+    assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
+    // The moved problem (a cold solve solves it).
+    let q: Vec<f64> =
+        pr.q.iter().enumerate().map(|(i, v)| v + 0.05 * (i as f64 * 1.7).sin()).collect();
+    let b: Vec<f64> =
+        pr.b.iter().enumerate().map(|(i, v)| v + 0.02 * (i as f64 * 2.3).cos().abs()).collect();
+    assert_eq!(ipm.solve(&pv, &q, &av, &b), IpmStatus::Solved, "warm");
+    let mut cold = new();
+    assert_eq!(cold.solve(&pv, &q, &av, &b), IpmStatus::Solved, "cold");
+    for (u, v) in ipm.x().iter().zip(cold.x()) {
+        assert!((u - v).abs() < 1e-6, "{:?} vs {:?}", ipm.x(), cold.x());
+    }
+    let moved = Problem { q, b, ..pr };
+    let (primal, dual, gap, inside) = certificate(&moved, &ipm);
+    assert!(primal < 1e-8 && dual < 1e-8 && gap < 1e-7 && inside, "{primal} {dual} {gap} {inside}");
 }
 
 /// An objective divided by a large factor (PTR's scaled solves at a heavy trust-region

@@ -35,7 +35,8 @@
 //! cancellation near the boundary), so a solve allocates nothing.
 //!
 //! After a first solve, the next one starts warm (see [`IpmSettings::warm_start_margin`]):
-//! consecutive PTR subproblems differ little, and their duals carry over.
+//! consecutive PTR subproblems differ little, and their duals carry over. A warm start that
+//! jams (three steps in a row shorter than 1 % of the way to the boundary) restarts cold.
 //!
 //! Clarabel solves the same problems through its homogeneous embedding and detects
 //! infeasibility; this solver does not (PTR's subproblems are feasible by construction: virtual
@@ -373,8 +374,10 @@ impl InteriorPoint {
         assert_eq!(b.len(), self.m, "b");
         let (m0, tol) = (self.cones.zero, self.settings.tolerance);
         self.iterations = 0;
-        let warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
+        let mut warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
         self.has_solution = false;
+        // Consecutive short steps of a warm start (see below).
+        let mut jammed = 0;
         if warm {
             self.start_warm(b);
         } else if !self.start_cold(p, q, a, b) {
@@ -441,6 +444,18 @@ impl InteriorPoint {
                     alpha *= 0.5;
                     halvings += 1;
                 }
+            }
+            // A warm start far from the new problem's central path can jam: the step to the
+            // boundary collapses and the iterates stop moving (2 of 40 000 warm re-solves of
+            // slightly moved random problems did, to the iteration cap). After three such
+            // steps in a row, start again cold.
+            jammed = if warm && alpha < 1e-2 { jammed + 1 } else { 0 };
+            if jammed >= 3 {
+                warm = false;
+                if !self.start_cold(p, q, a, b) {
+                    return IpmStatus::NumericalError;
+                }
+                continue;
             }
             for (x, d) in self.x.iter_mut().zip(&self.dx) {
                 *x += alpha * d;
