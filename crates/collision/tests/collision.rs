@@ -99,7 +99,9 @@ fn distances_match_brute_force_and_closed_form() {
             let link = |name: &str| model.links().iter().find(|l| l.name == name).unwrap();
             let a = link(&pair.a);
             let (a0, a1) = (kp[a.start], kp[a.end]);
-            let (exact, sampled) = if let Some(b) = model.links().iter().find(|l| l.name == pair.b)
+            // The sampled distance is off by at most half a sampling step along each segment.
+            let (exact, sampled, step) = if let Some(b) =
+                model.links().iter().find(|l| l.name == pair.b)
             {
                 let (b0, b1) = (kp[b.start], kp[b.end]);
                 let closed = closed_form_segment_distance(&a0, &a1, &b0, &b1) - a.radius - b.radius;
@@ -111,6 +113,7 @@ fn distances_match_brute_force_and_closed_form() {
                 (
                     reference_segment_distance(&a0, &a1, &b0, &b1) - a.radius - b.radius,
                     sampled_segment_distance(&a0, &a1, &b0, &b1, 200) - a.radius - b.radius,
+                    ((a1 - a0).norm() + (b1 - b0).norm()) / 400.0,
                 )
             } else {
                 let c = V::new(0.35, 0.0, 0.25);
@@ -118,7 +121,7 @@ fn distances_match_brute_force_and_closed_form() {
                     .map(|i| (a0 + (a1 - a0) * (i as f64 / 2000.0) - c).norm())
                     .fold(f64::INFINITY, f64::min);
                 let d = reference_segment_distance(&a0, &a1, &c, &c);
-                (d - a.radius - 0.06, sampled - a.radius - 0.06)
+                (d - a.radius - 0.06, sampled - a.radius - 0.06, (a1 - a0).norm() / 4000.0)
             };
             assert!(
                 (r.distance - exact).abs() < 1e-9,
@@ -128,8 +131,8 @@ fn distances_match_brute_force_and_closed_form() {
                 r.distance
             );
             assert!(
-                (r.distance - sampled).abs() < 1e-3 && r.distance <= sampled + 1e-12,
-                "{} vs sampled {sampled}",
+                r.distance <= sampled + 1e-12 && sampled - r.distance <= step + 1e-12,
+                "{} vs sampled {sampled} (step {step})",
                 r.distance
             );
             // Witness points: on the surfaces, `distance` apart along the normal.
