@@ -120,12 +120,9 @@ fn assert_meets_the_task(s: &seed::Seed, r: &PtrResult) {
     assert_eq!(r.status, PtrStatus::Converged);
     assert!(r.final_time <= 4.0 + 1e-9, "T = {}", r.final_time);
     assert!((c.dense_final_time - r.final_time).abs() < 1e-9);
-    assert!(c.waypoint_error <= 0.01 + 1e-6, "waypoint error {} m", c.waypoint_error);
-    assert!(c.orientation_error[0] <= 5f64.to_radians() + 1e-6, "{:?}", c.orientation_error);
-    assert!(c.orientation_error[1] <= 0.1f64.to_radians() + 1e-6, "{:?}", c.orientation_error);
-    assert!(c.joint_violation <= 1e-4, "joint limits violated by {}", c.joint_violation);
-    assert!(c.velocity_violation <= 1e-4, "velocity violated by {}", c.velocity_violation);
-    assert!(c.table_violation <= 1e-4, "table violated by {}", c.table_violation);
+    // Waypoints within 1 cm, orientations within 5° / 0.1°, joint, velocity and table limits
+    // within 1e-4 on the dense trajectory (the criteria `seed_neighbourhood` reports too).
+    assert_eq!(c.missed(false), None);
     // Dynamically consistent: the nodes are where the dynamics take them.
     assert!(r.history.last().unwrap().max_defect < 1e-6);
 }

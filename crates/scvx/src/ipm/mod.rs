@@ -31,8 +31,9 @@
 //! W⁻² in Δz as the iterates approach the cone boundaries. The predictor's is not: it only
 //! sets the centring, through its step to the boundary and the gap there (refining it too
 //! cost 5–12 % more subproblem time on the seed arm, for the same first-order PTR iterates).
-//! GᵀW⁻²G is accumulated from a list of products fixed by the sparsity pattern (for a cone, from W⁻¹G: W⁻² itself loses its small eigenvalue to
-//! cancellation near the boundary), so a solve allocates nothing.
+//! GᵀW⁻²G is accumulated from a list of products fixed by the sparsity pattern (for a cone,
+//! from W⁻¹G: W⁻² itself loses its small eigenvalue to cancellation near the boundary), so a
+//! solve allocates nothing.
 //!
 //! After a first solve, the next one starts warm (see [`IpmSettings::warm_start_margin`]):
 //! consecutive PTR subproblems differ little, and their duals carry over. A warm start that
