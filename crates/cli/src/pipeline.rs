@@ -8,8 +8,8 @@ use armature_ik::{IkSettings, IkTrajectory, JointSpline, Keyframe, Mode, ik_inte
 use armature_kinematics::Chain;
 use armature_lie::SO3;
 use armature_scvx::{
-    Ball, CompiledProblem, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, PtrSettings,
-    State, Time,
+    Ball, BetweenNodes, CompiledProblem, Control, CtcsOptions, Penalty, Problem, ProblemConstraint,
+    PtrSettings, State, Time,
 };
 use armature_symbolic::{Expr, Shape};
 use serde::Serialize;
@@ -279,7 +279,8 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 links: spec.links.clone(),
                 obstacles: spec.obstacles.clone(),
             };
-            Some((scene.model(&chain).map_err(|e| src.error(c, e.to_string()))?, spec.margin))
+            let model = scene.model(&chain).map_err(|e| src.error(c, e.to_string()))?;
+            Some((model, spec.margin, spec.between_nodes))
         }
     };
     let mode = match task.initialization.ik.get_ref().as_str() {
@@ -371,9 +372,19 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             nodes: (*first..=*last).collect(),
         });
     }
-    if let Some((model, margin)) = &collision {
+    let mut between_nodes = Vec::new();
+    if let Some((model, margin, peaks)) = &collision {
         let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
-        for (pair, d) in model.symbolic_distances(&positions) {
+        let distances = model.symbolic_distances(&positions);
+        if *peaks && !distances.is_empty() {
+            between_nodes.push(BetweenNodes {
+                name: "clearance".into(),
+                g: Expr::concat(&distances.iter().map(|(_, d)| *margin - d).collect::<Vec<_>>()),
+                first: 0,
+                last: nodes - 1,
+            });
+        }
+        for (pair, d) in distances {
             constraints.push(ProblemConstraint {
                 constraint: (*margin - &d).le(0.0).ctcs().named(format!("clearance {pair}")),
                 // An integral of its own: summed into the limits' integral, the clearance
@@ -397,6 +408,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         time: Time::Free { min: t_min, max: t_max, guess: duration, minimize: task.time.minimize },
         constraints,
         balls,
+        between_nodes,
         outputs,
         state_bounds_ctcs: Some(limits),
         ..Problem::new(nodes)
@@ -411,7 +423,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         velocity_limit,
         torque_limit,
         table_height,
-        collision: collision.map(|(m, _)| m),
+        collision: collision.map(|(m, _, _)| m),
         problem,
         dilation_guess,
         ik,

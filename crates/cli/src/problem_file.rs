@@ -530,6 +530,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         time,
         constraints,
         balls,
+        between_nodes: Vec::new(),
         outputs,
         state_bounds_ctcs: file.state_bounds_ctcs.then_some(CtcsOptions {
             penalty: Penalty::Relu,

@@ -205,6 +205,13 @@ pub struct CollisionSpec {
     /// dip a fraction of a millimetre below its bound between nodes.
     #[serde(default = "default_margin")]
     pub margin: f64,
+    /// Also keep the clearance at each segment's peak between the nodes (one buffered row
+    /// per pair and segment, linearized through the integration grid), not only through the
+    /// continuous-time integral and at the nodes. Default true: where the motion grazes an
+    /// obstacle between two nodes the integral's linearization switches on and off, and the
+    /// solve takes far more iterations without these rows.
+    #[serde(default = "yes")]
+    pub between_nodes: bool,
     /// Check non-adjacent link pairs. Default true.
     #[serde(default = "yes")]
     pub self_collision: bool,

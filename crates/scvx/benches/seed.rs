@@ -1,8 +1,9 @@
 //! The seed pick-and-place: one full solve (after problem construction), the same with the
 //! quasi-Newton model and the Lagrangian merit, the same with Clarabel (instead of the
 //! default native interior point) for every subproblem, the collision variant with either
-//! solver, the plain and collision variants with interval bounds (the velocity limits also
-//! enforced between the nodes), and one discretization of the guess.
+//! solver (and without the clearances' peak rows, for comparison), the plain and collision
+//! variants with interval bounds (the velocity limits also enforced between the nodes), and
+//! one discretization of the guess.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -44,6 +45,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve_collision", |b| {
         b.iter(|| black_box(ptr_c.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
+    let sn = seed::build_with(seed::Variant {
+        collision: true,
+        without_clearance_peaks: true,
+        ..seed::Variant::default()
+    });
+    let mut ptr_np = Ptr::new(sn.ocp.clone(), PtrSettings::default());
+    g.bench_function("solve_collision_without_peaks", |b| {
+        b.iter(|| black_box(ptr_np.solve(&sn.x, &sn.u, &sn.s).unwrap().final_time))
+    });
     let mut ptr_cn = Ptr::new(sc.ocp.clone(), clarabel);
     g.bench_function("solve_collision_clarabel", |b| {
         b.iter(|| black_box(ptr_cn.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
@@ -51,7 +61,11 @@ fn bench(c: &mut Criterion) {
     for (name, collision) in
         [("solve_interval_bounds", false), ("solve_collision_interval_bounds", true)]
     {
-        let si = seed::build_with(seed::Variant { collision, interval_bounds: true });
+        let si = seed::build_with(seed::Variant {
+            collision,
+            interval_bounds: true,
+            ..seed::Variant::default()
+        });
         let mut ptr_i = Ptr::new(si.ocp.clone(), PtrSettings::default());
         g.bench_function(name, |b| {
             b.iter(|| black_box(ptr_i.solve(&si.x, &si.u, &si.s).unwrap().final_time))
@@ -73,7 +87,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| d.defects(&s.x, &s.u, &s.s, &Default::default(), &mut ws, &mut out).unwrap())
     });
     // The collision variant's dynamics: its clearance penalties are inactive almost everywhere.
-    let sc = seed::build_with(seed::Variant { collision: true, interval_bounds: false });
+    let sc = seed::build_collision();
     let dc = &sc.ocp.dynamics;
     let (mut wsc, mut outc) = (dc.workspace(), dc.output(seed::NODES));
     g.bench_function("discretize_collision", |b| {

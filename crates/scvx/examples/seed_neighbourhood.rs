@@ -7,8 +7,9 @@
 //! blind linearization) the count and the final time swing with any setting, and one lucky
 //! run says little.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_neighbourhood [-- wide] [lagrangian|qn]`
-//! (`lagrangian`: the Lagrangian merit with σ = 0.5; `qn`: that and the quasi-Newton model).
+//! Run: `cargo run --release -p armature-scvx --example seed_neighbourhood [-- wide] [lagrangian|qn] [nopeaks]`
+//! (`lagrangian`: the Lagrangian merit with σ = 0.5; `qn`: that and the quasi-Newton model;
+//! `nopeaks`: the collision variants without the clearances' peak rows between the nodes).
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -30,7 +31,11 @@ fn main() {
     println!("variant                      λ_tr substeps  its        T    solve ms  outcome");
     for interval_bounds in [false, true] {
         for collision in [false, true] {
-            let s = seed::build_with(seed::Variant { collision, interval_bounds });
+            let s = seed::build_with(seed::Variant {
+                collision,
+                interval_bounds,
+                without_clearance_peaks: has("nopeaks"),
+            });
             let name = format!(
                 "{}{}",
                 if collision { "collision" } else { "plain" },

@@ -2,7 +2,7 @@
 //! same fixture as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [interval] [dp] [qn] [ipm|clarabel]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [interval] [nopeaks] [dp] [qn] [ipm|clarabel]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -11,11 +11,12 @@ use armature_scvx::{IterationTable, Ptr, PtrSettings};
 
 fn main() {
     // `-- collision` solves the seed's collision variant; `interval` adds the velocity
-    // bounds between the nodes.
+    // bounds between the nodes; `nopeaks` leaves out the clearances' peak rows.
     let has = |flag: &str| std::env::args().any(|a| a == flag);
     let s = seed::build_with(seed::Variant {
         collision: has("collision"),
         interval_bounds: has("interval"),
+        without_clearance_peaks: has("nopeaks"),
     });
     let t0 = std::time::Instant::now();
     // `-- dp`: adaptive Dormand–Prince instead of fixed-step RK4.

@@ -14,11 +14,11 @@ pub use discretization::{
     DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS,
 };
 pub use problem::{
-    Ball, Boundary, CompiledProblem, Control, CtcsOptions, MAX_NODES, Problem, ProblemConstraint,
-    ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
+    Ball, BetweenNodes, Boundary, CompiledProblem, Control, CtcsOptions, MAX_NODES, Problem,
+    ProblemConstraint, ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
 };
 pub use ptr::{
-    Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult,
-    PtrSettings, PtrStatus, SettingsError, SubproblemDimensions, SubproblemSettings,
-    SubproblemSolver, Timings, Trajectory, TrustRegionUpdate, Violation,
+    IntervalConstraint, Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
+    PtrError, PtrResult, PtrSettings, PtrStatus, SettingsError, SubproblemDimensions,
+    SubproblemSettings, SubproblemSolver, Timings, Trajectory, TrustRegionUpdate, Violation,
 };

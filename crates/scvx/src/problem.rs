@@ -53,8 +53,9 @@ use armature_symbolic::{Constraint, Expr, Function, SymbolicError, Timing};
 use serde::Serialize;
 
 use crate::{
-    CtcsGroup, DiscretizationError, Dynamics, Iteration, NodalConstraint, NodalKind, Ocp, Penalty,
-    Ptr, PtrError, PtrResult, PtrSettings, Trajectory, Violation, ctcs_states,
+    CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration, NodalConstraint,
+    NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, Trajectory, Violation,
+    ctcs_states,
 };
 
 /// Largest node count a [`Problem`] accepts (the subproblem grows linearly with it; this
@@ -270,6 +271,22 @@ pub struct Ball {
     pub nodes: Vec<usize>,
 }
 
+/// A state constraint `g ≤ 0` (entrywise) also enforced between the nodes of segments
+/// `first..last`, at each segment's peak on the integration grid (see
+/// [`IntervalConstraint`]): for clearances and other limits the
+/// motion grazes between the nodes, where a CTCS integral's linearization is blind.
+#[derive(Debug, Clone)]
+pub struct BetweenNodes {
+    /// Name for diagnostics.
+    pub name: String,
+    /// `g`, an expression of the states only (any shape; each entry is one constraint).
+    pub g: Expr,
+    /// First segment (= its first node).
+    pub first: usize,
+    /// One past the last segment (= the last node); `first < last ≤ N − 1`.
+    pub last: usize,
+}
+
 /// A trajectory optimization problem by name. Build with struct-update syntax from
 /// [`Problem::new`] (see the module example).
 #[derive(Debug, Clone)]
@@ -288,6 +305,8 @@ pub struct Problem {
     pub constraints: Vec<ProblemConstraint>,
     /// Nodal second-order-cone constraints.
     pub balls: Vec<Ball>,
+    /// State constraints also enforced at each segment's peak between the nodes.
+    pub between_nodes: Vec<BetweenNodes>,
     /// Named algebraic outputs evaluated along the solution (e.g. `ee_position`).
     pub outputs: Vec<(String, Expr)>,
     /// Also enforce the state bounds between nodes (a CTCS group) with these options.
@@ -309,6 +328,7 @@ impl Problem {
             time: Time::Free { min: 0.0, max: 10.0, guess: 5.0, minimize: true },
             constraints: Vec::new(),
             balls: Vec::new(),
+            between_nodes: Vec::new(),
             outputs: Vec::new(),
             state_bounds_ctcs: Some(CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 }),
             dilation: None,
@@ -566,6 +586,31 @@ impl Problem {
                 kind: NodalKind::Ball { radius: b.radius },
             });
         }
+        let mut interval_constraints = Vec::new();
+        for c in &self.between_nodes {
+            let what = format!("between-nodes constraint \"{}\"", c.name);
+            if !(c.first < c.last && c.last < nn) {
+                return Err(bad(
+                    what,
+                    format!(
+                        "segments {}..{} must satisfy first < last ≤ {} (the last node)",
+                        c.first,
+                        c.last,
+                        nn - 1
+                    ),
+                ));
+            }
+            let function = Function::compile(&[c.g.clone()], &args).map_err(sym(what.clone()))?;
+            if function.jacobian_pattern().entries().any(|(_, col)| col >= n) {
+                return Err(bad(what, "it reads a control; it may read the states only"));
+            }
+            interval_constraints.push(IntervalConstraint {
+                name: c.name.clone(),
+                function,
+                first: c.first,
+                last: c.last,
+            });
+        }
         // Outputs.
         let mut outputs = Vec::new();
         let mut off = 0;
@@ -642,6 +687,7 @@ impl Problem {
                 }
                 rows
             },
+            interval_constraints,
         };
         let guess = self.guess(&ocp, n, &settings)?;
         let blocks = |names: Vec<(String, usize)>| {

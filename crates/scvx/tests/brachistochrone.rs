@@ -66,6 +66,7 @@ fn check(settings: PtrSettings) {
         increments: vec![],
         nodal: vec![],
         interval_bounds: vec![],
+        interval_constraints: Vec::new(),
     };
     let mut ptr = Ptr::new(ocp, settings);
     // Guess: straight line at 45°, speed growing, 1 s.

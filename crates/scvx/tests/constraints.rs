@@ -58,6 +58,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         increments: vec![(2, 1e-6, 0, nodes - 1)],
         nodal: vec![],
         interval_bounds: vec![],
+        interval_constraints: Vec::new(),
     };
     let mut ptr = Ptr::new(ocp.clone(), published_ptr(150));
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.3, 0.0]).collect();

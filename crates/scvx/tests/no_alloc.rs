@@ -22,6 +22,9 @@ fn ptr_steps_are_allocation_free() {
     // With interval bounds the discretization also fills its grid and the peak rows are
     // refreshed each step.
     let interval = seed::build_with(seed::Variant { interval_bounds: true, ..Default::default() });
+    // The collision variant evaluates its clearances on the grid for their peak rows (values
+    // everywhere, Jacobians at the stencils).
+    let collision = seed::build_collision();
     for (s, quasi_newton, solver) in [
         (&plain, false, SubproblemSolver::Clarabel),
         (&plain, true, SubproblemSolver::Clarabel),
@@ -29,6 +32,7 @@ fn ptr_steps_are_allocation_free() {
         (&plain, true, SubproblemSolver::InteriorPoint),
         (&interval, false, SubproblemSolver::InteriorPoint),
         (&interval, true, SubproblemSolver::InteriorPoint),
+        (&collision, false, SubproblemSolver::InteriorPoint),
     ] {
         let settings = PtrSettings {
             subproblem: SubproblemSettings { solver, ..SubproblemSettings::default() },
@@ -53,8 +57,10 @@ fn ptr_steps_are_allocation_free() {
             let allowed = usize::from(solver == SubproblemSolver::Clarabel);
             assert!(
                 count <= allowed,
-                "quasi_newton {quasi_newton}, {solver:?}, interval bounds {}: {count} allocations",
-                !s.ocp.interval_bounds.is_empty()
+                "quasi_newton {quasi_newton}, {solver:?}, interval bounds {}, interval \
+                 constraints {}: {count} allocations",
+                !s.ocp.interval_bounds.is_empty(),
+                s.ocp.interval_constraints.len()
             );
         }
     }

@@ -206,7 +206,11 @@ fn seed_collision_variant_converges_without_penetration() {
 #[test]
 fn interval_bounds_meet_the_task_at_a_lower_final_time() {
     for collision in [false, true] {
-        let s = seed::build_with(seed::Variant { collision, interval_bounds: true });
+        let s = seed::build_with(seed::Variant {
+            collision,
+            interval_bounds: true,
+            ..seed::Variant::default()
+        });
         let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
         assert_meets_the_task(&s, &r);
         assert!(r.final_time < 1.35, "collision {collision}: T = {}", r.final_time);
@@ -231,14 +235,19 @@ fn interval_bounds_meet_the_task_at_a_lower_final_time() {
 /// back to Clarabel. The scaled solves stay as accurate as unscaled ones (the interior point
 /// is told the scale, see `InteriorPoint::set_objective_scale`), so the run converges.
 ///
-/// Here: the collision variant with interval bounds from λ_tr = 2 (a point of the
-/// `seed_neighbourhood` example). Near its optimum λ_tr passes 1e3 and the unscaled solve
-/// fails (the dual residual stalls once the duals reach about 1e4). With the gap tolerance
-/// left on the divided objective, virtual controls of about 2e-6 then kept the defects above
-/// their tolerance until λ_tr reached its cap (`Stalled` after 75 iterations).
+/// Here: the collision variant with interval bounds from λ_tr = 2, in the formulation
+/// without the clearances' peak rows (with them no run of the `seed_neighbourhood` grids
+/// reaches this regime). Near its optimum λ_tr passes 1e3 and the unscaled solve fails (the
+/// dual residual stalls once the duals reach about 1e4). With the gap tolerance left on the
+/// divided objective, virtual controls of about 2e-6 then kept the defects above their
+/// tolerance until λ_tr reached its cap (`Stalled` after 75 iterations).
 #[test]
 fn badly_scaled_subproblems_are_retried_scaled_and_stay_accurate() {
-    let s = seed::build_with(seed::Variant { collision: true, interval_bounds: true });
+    let s = seed::build_with(seed::Variant {
+        collision: true,
+        interval_bounds: true,
+        without_clearance_peaks: true,
+    });
     let settings = PtrSettings { lam_tr: 2.0, ..PtrSettings::default() };
     let cap = settings.subproblem.interior_point_max_iterations;
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
@@ -261,11 +270,16 @@ fn badly_scaled_subproblems_are_retried_scaled_and_stay_accurate() {
 
 /// The Lagrangian merit prices every defect nonnegatively (its duals are clipped to the
 /// price it keeps). With the raw duals, the collision variant's first-order solve with that
-/// merit accepted steps that grew the collision row's defect (its dual, about 2000, exceeds
-/// half its price) until λ_tr reached its cap, and ended at the iteration cap, penetrating.
+/// merit (in the formulation without the clearances' peak rows, whose path shows it)
+/// accepted steps that grew the collision row's defect (its dual, about 2000, exceeds half
+/// its price) until λ_tr reached its cap, and ended at the iteration cap, penetrating.
 #[test]
 fn the_lagrangian_merit_does_not_reward_defects() {
-    let s = seed::build_collision();
+    let s = seed::build_with(seed::Variant {
+        collision: true,
+        without_clearance_peaks: true,
+        ..seed::Variant::default()
+    });
     let settings =
         PtrSettings { merit: Merit::Lagrangian { sigma: 0.5 }, ..PtrSettings::default() };
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();

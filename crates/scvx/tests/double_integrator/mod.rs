@@ -33,6 +33,7 @@ pub(crate) fn problem(
         increments: vec![],
         nodal,
         interval_bounds: vec![],
+        interval_constraints: Vec::new(),
     }
 }
 

@@ -95,11 +95,15 @@ pub struct Variant {
     /// rows hold the bound, so the integral only has to catch what lies between the
     /// integration grid's points.
     pub interval_bounds: bool,
+    /// With `collision`: the clearances only as their CTCS integral and at the nodes, without
+    /// their peak rows between the nodes ([`Ocp::interval_constraints`]) — the formulation
+    /// before those rows, kept for the regression tests whose cases it produced.
+    pub without_clearance_peaks: bool,
 }
 
 /// The seed problem in the given variant.
 pub fn build_with(variant: Variant) -> Seed {
-    let Variant { collision, interval_bounds } = variant;
+    let Variant { collision, interval_bounds, without_clearance_peaks } = variant;
     let arm = robots::arm7();
     let nodes = NODES;
     let angle = Expr::variable("angle", 7);
@@ -153,7 +157,7 @@ pub fn build_with(variant: Variant) -> Seed {
             last: nodes - 1,
             penalty: Penalty::Relu,
         });
-        eps.push(1e-6);
+        eps.push(std::env::var("COLL_EPS").ok().and_then(|e| e.parse().ok()).unwrap_or(1e-6));
     }
     let mut states = vec![angle.clone(), velocity.clone()];
     let mut rhs = vec![velocity.clone(), &i_inv * &torque];
@@ -262,6 +266,24 @@ pub fn build_with(variant: Variant) -> Seed {
         // The velocities: the bounds the time-optimal motion rides (the joint limits are far
         // from this motion; the dense check verifies both).
         interval_bounds: if interval_bounds { (7..14).collect() } else { vec![] },
+        // The clearances also at each segment's peak (the CTCS integral alone switches its
+        // gradient on and off where the motion grazes an obstacle between the nodes).
+        interval_constraints: if collision && !without_clearance_peaks {
+            vec![armature_scvx::IntervalConstraint {
+                name: "clearance".into(),
+                function: Function::compile(
+                    &[Expr::concat(
+                        &distances.iter().map(|(_, d)| CLEARANCE_MARGIN - d).collect::<Vec<_>>(),
+                    )],
+                    &args,
+                )
+                .unwrap(),
+                first: 0,
+                last: nodes - 1,
+            }]
+        } else {
+            Vec::new()
+        },
     };
     // CTCS integrals along the guess, so it has no defects in those rows either.
     let mut ws = ocp.dynamics.workspace();

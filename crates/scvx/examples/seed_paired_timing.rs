@@ -1,0 +1,63 @@
+//! Paired timing of the seed's variants: the plain solve, the collision variant (with and
+//! without the clearances' peak rows) and both with interval bounds, alternated in one
+//! process so that every variant sees the same phases of a machine whose speed drifts, then
+//! the median of each and its ratio to the plain solve. Criterion's benches
+//! (`cargo bench -p armature-scvx --bench seed`) measure the variants one after another, so
+//! their ratios move with the machine's phase; these do not.
+//!
+//! Run: `cargo run --release -p armature-scvx --example seed_paired_timing [-- ROUNDS]`
+//! (default 15 rounds).
+
+#[path = "../tests/seed/mod.rs"]
+mod seed;
+
+use armature_scvx::{Ptr, PtrSettings};
+use seed::Variant;
+
+fn main() {
+    let rounds: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(15).max(1);
+    let variants = [
+        ("plain", Variant::default()),
+        ("collision", Variant { collision: true, ..Variant::default() }),
+        (
+            "collision without peak rows",
+            Variant { collision: true, without_clearance_peaks: true, ..Variant::default() },
+        ),
+        ("interval bounds", Variant { interval_bounds: true, ..Variant::default() }),
+        (
+            "collision + interval bounds",
+            Variant { collision: true, interval_bounds: true, ..Variant::default() },
+        ),
+    ];
+    let seeds: Vec<seed::Seed> = variants.iter().map(|(_, v)| seed::build_with(*v)).collect();
+    let mut solvers: Vec<Ptr> =
+        seeds.iter().map(|s| Ptr::new(s.ocp.clone(), PtrSettings::default())).collect();
+    let mut times = vec![Vec::with_capacity(rounds); seeds.len()];
+    let mut outcome = vec![(0, 0.0); seeds.len()];
+    for _ in 0..rounds {
+        for (i, s) in seeds.iter().enumerate() {
+            let t = std::time::Instant::now();
+            let r = solvers[i].solve(&s.x, &s.u, &s.s).expect("the seed's sizes match");
+            times[i].push(t.elapsed().as_secs_f64() * 1e3);
+            outcome[i] = (r.history.len(), r.final_time);
+        }
+    }
+    let medians: Vec<f64> = times
+        .iter_mut()
+        .map(|v| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        })
+        .collect();
+    println!("variant                       its        T   median ms   ratio");
+    for (i, (name, _)) in variants.iter().enumerate() {
+        println!(
+            "{name:28} {:4} {:8.4} {:11.1} {:7.2}",
+            outcome[i].0,
+            outcome[i].1,
+            medians[i],
+            medians[i] / medians[0]
+        );
+    }
+    println!("({rounds} rounds, medians; the ratio of each to the plain solve)");
+}
