@@ -34,6 +34,7 @@
 //! [[constraints]]
 //! expr = "v <= v_max"
 //! ctcs = true           # in continuous time (default: at the nodes)
+//! # between_nodes = true  # also at each segment's peak between the nodes (states only)
 //!
 //! [outputs]
 //! speed = "abs(v)"
@@ -44,8 +45,8 @@
 use std::collections::BTreeMap;
 
 use armature_scvx::{
-    Ball, Boundary, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, PtrSettings, State,
-    Time,
+    Ball, BetweenNodes, Boundary, Control, CtcsOptions, Penalty, Problem, ProblemConstraint,
+    PtrSettings, State, Time,
 };
 use armature_symbolic::{Expr, Shape, SymbolTable, SymbolicError, parse_constraint, parse_expr};
 use serde::Deserialize;
@@ -240,6 +241,10 @@ pub struct ConstraintSpec {
     /// CTCS group label. Default 0.
     #[serde(default)]
     pub group: Option<usize>,
+    /// Also hold it at each segment's peak between the nodes (of `over`, default all):
+    /// an inequality of the states only. Default false.
+    #[serde(default)]
+    pub between_nodes: bool,
 }
 
 /// CTCS penalty names (for the schema).
@@ -434,6 +439,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         })
         .collect::<Result<Vec<_>, _>>()?;
     let mut constraints = Vec::new();
+    let mut between_nodes = Vec::new();
     for c in &file.constraints {
         let mut k = parse_constraint(c.expr.get_ref(), &symbols)
             .map_err(|e| expr_error(src, &c.expr, e))?;
@@ -466,6 +472,9 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         }
         if let Some(g) = c.group {
             ctcs.group = g;
+        }
+        if c.between_nodes {
+            between_nodes.push(between(src, c, &k, nodes, (&states, &controls))?);
         }
         constraints.push(ProblemConstraint { constraint: k, ctcs });
     }
@@ -530,7 +539,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         time,
         constraints,
         balls,
-        between_nodes: Vec::new(),
+        between_nodes,
         outputs,
         state_bounds_ctcs: file.state_bounds_ctcs.then_some(CtcsOptions {
             penalty: Penalty::Relu,
@@ -540,6 +549,41 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         dilation: None,
     };
     Ok((problem, settings))
+}
+
+/// The between-nodes part of constraint `c` (parsed as `k`): its `g ≤ 0` over `over`'s
+/// segments (default all), which must be an inequality of the states only.
+fn between(
+    src: Source<'_>,
+    c: &ConstraintSpec,
+    k: &armature_symbolic::Constraint,
+    nodes: usize,
+    (states, controls): (&[State], &[Control]),
+) -> Result<BetweenNodes, LocatedError> {
+    if k.is_equality() {
+        return Err(src.error(&c.expr, "a between-nodes constraint must be an inequality"));
+    }
+    let (first, last) =
+        c.over.as_ref().map_or((0, nodes - 1), |o| (o.get_ref()[0], o.get_ref()[1]));
+    if first >= last {
+        let reason = format!("a between-nodes constraint needs a segment (over [{first}, {last}])");
+        return Err(match &c.over {
+            Some(o) => src.error(o, reason),
+            None => src.error(&c.expr, reason),
+        });
+    }
+    let xs: Vec<Expr> = states.iter().map(State::expr).collect();
+    let us: Vec<Expr> = controls.iter().map(Control::expr).collect();
+    let f = armature_symbolic::Function::compile(&[k.function().clone()], &[&xs, &us])
+        .map_err(|e| src.error(&c.expr, e.to_string()))?;
+    let n: usize = states.iter().map(State::size).sum();
+    if f.jacobian_pattern().entries().any(|(_, col)| col >= n) {
+        return Err(src.error(
+            &c.expr,
+            "a between-nodes constraint may read the states only (it reads a control)",
+        ));
+    }
+    Ok(BetweenNodes { name: k.name().to_string(), g: k.function().clone(), first, last })
 }
 
 /// Whether a TOML text is a problem file (it has `states`) rather than a task file.

@@ -197,7 +197,8 @@ pub struct OrientationSpec {
 }
 
 /// Collision: capsule links between keypoints, obstacles, pair options, and the clearance
-/// kept from every pair (the `armature-collision` scene format plus `margin`).
+/// kept from every pair (the `armature-collision` scene format plus `margin` and
+/// `between_nodes`).
 #[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionSpec {

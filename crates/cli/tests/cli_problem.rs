@@ -65,6 +65,30 @@ fn interval_bounds_hold_a_state_bound_between_the_nodes() {
     assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{v_nodal} {t_nodal}");
 }
 
+/// The speed limit as a nodal constraint held between the nodes too (`between_nodes`, at
+/// each segment's peak on the integration grid), without CTCS: on 6 nodes the dense
+/// trajectory keeps it; at the nodes alone the speed overshoots between them.
+#[test]
+fn between_nodes_constraints_hold_between_the_nodes() {
+    let limited = |between: bool| {
+        let text = PROBLEM
+            .replace("nodes = 41", "nodes = 6")
+            .replace("ctcs = true\neps = 1e-6", &format!("between_nodes = {between}"));
+        assert!(text.contains("between_nodes"));
+        let path = temp_file(&format!("between-{between}"), "problem.toml", &text);
+        let (code, stdout, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+        assert_eq!(code, 0, "{stderr}");
+        let r: Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(r["status"], "converged");
+        (r["final_time"].as_f64().unwrap(), fastest(&r))
+    };
+    let (t_peaks, v_peaks) = limited(true);
+    assert!(v_peaks <= 0.7 + 1e-6, "{v_peaks}");
+    assert!(t_peaks >= 2.1286 - 1e-3, "{t_peaks}");
+    let (t_nodal, v_nodal) = limited(false);
+    assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{v_nodal} {t_nodal}");
+}
+
 fn bad(tag: &str, from: &str, to: &str, line_col: &str, reason: &str) {
     assert!(PROBLEM.contains(from), "{tag}");
     let path = temp_file(tag, "problem.toml", &PROBLEM.replacen(from, to, 1));
@@ -103,6 +127,20 @@ fn expression_errors_point_at_their_character_in_the_file() {
         "expr = \"abs(v)\"",
         &format!("{l}:15"),
         "comparison",
+    );
+    bad(
+        "between-nodes-control",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"a <= v_max\"\nbetween_nodes = true",
+        &format!("{l}:8"),
+        "states only",
+    );
+    bad(
+        "between-nodes-equality",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"v == v_max\"\nbetween_nodes = true",
+        &format!("{l}:8"),
+        "inequality",
     );
     let l = line("kinetic_energy");
     bad(
