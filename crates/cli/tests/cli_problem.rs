@@ -37,56 +37,55 @@ fn the_double_integrator_problem_file_reaches_the_analytic_time() {
     assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);
 }
 
-/// The speed limit as the state's bounds, enforced between the nodes by `interval_bounds`
-/// alone (no CTCS): on 6 nodes the velocity is quadratic within each segment, its peak
-/// exact, and the dense trajectory keeps the limit; without it the speed overshoots
-/// between the nodes and the final time drops below the continuous optimum.
-#[test]
-fn interval_bounds_hold_a_state_bound_between_the_nodes() {
-    let speed_limited = |interval: bool| {
-        let text = PROBLEM
-            .replace("nodes = 41", "nodes = 6")
-            .replace("min = -10.0\nmax = 10.0\ninitial = 0.0\nfinal = 0.0", &format!(
-                "min = -0.7\nmax = 0.7\ninitial = 0.0\nfinal = 0.0\ninterval_bounds = {interval}"
-            ))
-            .replace("expr = \"abs(v) <= v_max\"", "expr = \"abs(v) <= 10\"");
-        assert!(text.contains("interval_bounds"));
-        let path = temp_file(&format!("interval-{interval}"), "problem.toml", &text);
+/// Solves a 6-node variant of the double integrator (its text `edit`ed from the example) and
+/// checks the speed limit of 0.7 between the nodes: with `held` the dense trajectory keeps it
+/// and the final time is not below the continuous optimum; without, the speed overshoots
+/// between the nodes and the final time drops.
+fn speed_limit_between_the_nodes(tag: &str, edit: impl Fn(&str, bool) -> String) {
+    let solve = |held: bool| {
+        let text = edit(&PROBLEM.replace("nodes = 41", "nodes = 6"), held);
+        let path = temp_file(&format!("{tag}-{held}"), "problem.toml", &text);
         let (code, stdout, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
         assert_eq!(code, 0, "{stderr}");
         let r: Value = serde_json::from_str(&stdout).unwrap();
         assert_eq!(r["status"], "converged");
         (r["final_time"].as_f64().unwrap(), fastest(&r))
     };
-    let (t_peaks, v_peaks) = speed_limited(true);
-    assert!(v_peaks <= 0.7 + 1e-6, "{v_peaks}");
-    assert!(t_peaks >= 2.1286 - 1e-3, "{t_peaks}");
-    let (t_nodal, v_nodal) = speed_limited(false);
-    assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{v_nodal} {t_nodal}");
+    let (t_peaks, v_peaks) = solve(true);
+    assert!(v_peaks <= 0.7 + 1e-6, "{tag}: {v_peaks}");
+    assert!(t_peaks >= 2.1286 - 1e-3, "{tag}: {t_peaks}");
+    let (t_nodal, v_nodal) = solve(false);
+    assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{tag}: {v_nodal} {t_nodal}");
+}
+
+/// The speed limit as the state's bounds, enforced between the nodes by `interval_bounds`
+/// alone (no CTCS): on 6 nodes the velocity is quadratic within each segment, its peak
+/// exact, and the dense trajectory keeps the limit.
+#[test]
+fn interval_bounds_hold_a_state_bound_between_the_nodes() {
+    speed_limit_between_the_nodes("interval", |text, held| {
+        let text = text
+            .replace(
+                "min = -10.0\nmax = 10.0\ninitial = 0.0\nfinal = 0.0",
+                &format!(
+                    "min = -0.7\nmax = 0.7\ninitial = 0.0\nfinal = 0.0\ninterval_bounds = {held}"
+                ),
+            )
+            .replace("expr = \"abs(v) <= v_max\"", "expr = \"abs(v) <= 10\"");
+        assert!(text.contains("interval_bounds"));
+        text
+    });
 }
 
 /// The speed limit as a nodal constraint held between the nodes too (`between_nodes`, at
-/// each segment's peak on the integration grid), without CTCS: on 6 nodes the dense
-/// trajectory keeps it; at the nodes alone the speed overshoots between them.
+/// each segment's peak on the integration grid), without CTCS.
 #[test]
 fn between_nodes_constraints_hold_between_the_nodes() {
-    let limited = |between: bool| {
-        let text = PROBLEM
-            .replace("nodes = 41", "nodes = 6")
-            .replace("ctcs = true\neps = 1e-6", &format!("between_nodes = {between}"));
+    speed_limit_between_the_nodes("between", |text, held| {
+        let text = text.replace("ctcs = true\neps = 1e-6", &format!("between_nodes = {held}"));
         assert!(text.contains("between_nodes"));
-        let path = temp_file(&format!("between-{between}"), "problem.toml", &text);
-        let (code, stdout, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
-        assert_eq!(code, 0, "{stderr}");
-        let r: Value = serde_json::from_str(&stdout).unwrap();
-        assert_eq!(r["status"], "converged");
-        (r["final_time"].as_f64().unwrap(), fastest(&r))
-    };
-    let (t_peaks, v_peaks) = limited(true);
-    assert!(v_peaks <= 0.7 + 1e-6, "{v_peaks}");
-    assert!(t_peaks >= 2.1286 - 1e-3, "{t_peaks}");
-    let (t_nodal, v_nodal) = limited(false);
-    assert!(v_nodal > 0.7 + 1e-2 && t_nodal < t_peaks, "{v_nodal} {t_nodal}");
+        text
+    });
 }
 
 fn bad(tag: &str, from: &str, to: &str, line_col: &str, reason: &str) {
