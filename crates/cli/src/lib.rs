@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+use std::io::Write as _;
+
 use clap::{Parser, Subcommand};
 
 pub mod commands;
@@ -75,7 +77,8 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
     match result {
         Ok(()) => exit::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", e.message);
+            // Best effort: the exit code carries the outcome even if standard error is closed.
+            let _ = writeln!(std::io::stderr(), "error: {}", e.message);
             e.code
         }
     }

@@ -241,6 +241,26 @@ fn a_solve_stopped_by_its_cap_exits_3_and_writes_its_result() {
     assert!(r["max_violation"]["constraint"].is_string());
 }
 
+/// `armature demo 2>&1 | head -1`: the progress lines meet a closed pipe. They are best
+/// effort — the solve finishes, writes its result and exits 0 (it used to panic on the
+/// first line it could not write, exit 101, and write nothing).
+#[test]
+fn a_closed_standard_error_does_not_stop_the_solve() {
+    use std::process::{Command, Stdio};
+    let out = temp_file("closed-stderr", "placeholder", "").with_file_name("result.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_armature"))
+        .args(["demo", "-o", out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    // Close the read end before the first line is written.
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0), "{status:?}");
+    assert_eq!(read_json(&out)["status"], "converged");
+}
+
 #[test]
 fn demo_prints_its_task_which_is_the_shipped_file() {
     for (example, text) in [("pick-and-place", TASK), ("pick-and-place-collision", COLLISION_TASK)]

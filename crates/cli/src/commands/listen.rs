@@ -46,7 +46,11 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     let sub = TrajectorySubscriber::new(&args.run, &BridgeSettings::default())
         .map_err(CliError::bad_input)?;
-    eprintln!("listening on armature/{0}/trajectory and armature/{0}/progress", args.run);
+    let _ = writeln!(
+        std::io::stderr(),
+        "listening on armature/{0}/trajectory and armature/{0}/progress",
+        args.run
+    );
     let idle = args.timeout.map(Duration::from_secs_f64);
     let mut last = Instant::now();
     loop {

@@ -1,5 +1,6 @@
 //! `armature solve`: the full pipeline from a task file.
 
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -104,7 +105,9 @@ pub fn run_task(
     let t0 = Instant::now();
     let say = |line: &str| {
         if !o.quiet {
-            eprintln!("{line}");
+            // A closed standard error (`2>&1 | head`) must not stop the solve or the writing
+            // of its results: progress lines are best effort.
+            let _ = writeln!(std::io::stderr(), "{line}");
         }
     };
     let loaded = load(src, path)?;
