@@ -157,7 +157,7 @@ pub fn build_with(variant: Variant) -> Seed {
             last: nodes - 1,
             penalty: Penalty::Relu,
         });
-        eps.push(std::env::var("COLL_EPS").ok().and_then(|e| e.parse().ok()).unwrap_or(1e-6));
+        eps.push(1e-6);
     }
     let mut states = vec![angle.clone(), velocity.clone()];
     let mut rhs = vec![velocity.clone(), &i_inv * &torque];
