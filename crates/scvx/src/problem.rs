@@ -275,6 +275,37 @@ pub struct Ball {
 /// `first..last`, at each segment's peak on the integration grid (see
 /// [`IntervalConstraint`]): for clearances and other limits the
 /// motion grazes between the nodes, where a CTCS integral's linearization is blind.
+///
+/// It adds the peak rows only; give the constraint at the nodes too (a nodal
+/// [`ProblemConstraint`], and a CTCS one for continuous-time guarantees beyond the grid), as
+/// the collision tasks do. [`Problem::compile`] rejects an expression that reads a control
+/// and segments outside `0..N − 1`.
+///
+/// # Example: a point mass around a disc
+/// ```
+/// use armature_scvx::{BetweenNodes, Control, Problem, ProblemConstraint, PtrSettings, State, Time};
+/// use armature_symbolic::Expr;
+/// let p = State::new("p", 2).initial_value(&[0.0, 0.0]).final_value(&[2.0, 0.0]);
+/// let v = State::new("v", 2).initial_value(&[0.0, 0.0]).final_value(&[0.0, 0.0]);
+/// let a = Control::new("a", 2).bounds(&[-1.0, -1.0], &[1.0, 1.0]);
+/// // Outside the disc of radius 0.3 around (1, −0.1): 0.09 − |p − c|² ≤ 0.
+/// let d = p.expr() - Expr::constant_vector(&[1.0, -0.1]);
+/// let g = -(d.clone() * d).sum() + 0.09;
+/// let problem = Problem {
+///     dynamics: vec![v.expr(), a.expr()],
+///     constraints: vec![ProblemConstraint::from(g.le(0.0).named("outside"))],
+///     between_nodes: vec![BetweenNodes { name: "outside".into(), g, first: 0, last: 5 }],
+///     states: vec![p, v],
+///     controls: vec![a],
+///     time: Time::Free { min: 0.0, max: 10.0, guess: 4.0, minimize: true },
+///     ..Problem::new(6)
+/// };
+/// let solution = problem.compile(PtrSettings::default()).unwrap().solve().unwrap();
+/// assert_eq!(solution.status, "converged");
+/// // No sample of the dense trajectory lies inside the disc.
+/// let inside = |q: &Vec<f64>| (q[0] - 1.0).powi(2) + (q[1] + 0.1).powi(2) < 0.09 - 1e-6;
+/// assert!(!solution.trajectory["p"].iter().any(inside));
+/// ```
 #[derive(Debug, Clone)]
 pub struct BetweenNodes {
     /// Name for diagnostics.

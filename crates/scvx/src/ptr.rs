@@ -160,6 +160,8 @@ pub struct Ocp {
 /// gives the subproblem the constraint's full gradient where it is tightest. Use it for
 /// clearances (`margin − distance`) and other state constraints the motion rides.
 ///
+/// The named layer builds them from [`BetweenNodes`](crate::BetweenNodes) (see its example).
+///
 /// # Errors
 /// [`Ptr::start`] returns [`PtrError::IntervalConstraint`] if `g` depends on the controls or
 /// the segments are not within the problem's nodes.
