@@ -45,8 +45,8 @@
 use std::collections::BTreeMap;
 
 use armature_scvx::{
-    Ball, BetweenNodes, Boundary, Control, CtcsOptions, Penalty, Problem, ProblemConstraint,
-    PtrSettings, State, Time,
+    Ball, BetweenNodes, Boundary, Control, CtcsOptions, IntervalConstraint, Penalty, Problem,
+    ProblemConstraint, PtrSettings, State, Time,
 };
 use armature_symbolic::{Expr, Shape, SymbolTable, SymbolicError, parse_constraint, parse_expr};
 use serde::Deserialize;
@@ -574,10 +574,10 @@ fn between(
     }
     let xs: Vec<Expr> = states.iter().map(State::expr).collect();
     let us: Vec<Expr> = controls.iter().map(Control::expr).collect();
-    let f = armature_symbolic::Function::compile(&[k.function().clone()], &[&xs, &us])
+    let function = armature_symbolic::Function::compile(&[k.function().clone()], &[&xs, &us])
         .map_err(|e| src.error(&c.expr, e.to_string()))?;
-    let n: usize = states.iter().map(State::size).sum();
-    if f.jacobian_pattern().entries().any(|(_, col)| col >= n) {
+    let checked = IntervalConstraint { name: k.name().to_string(), function, first, last };
+    if checked.reads_controls(states.iter().map(State::size).sum()) {
         return Err(src.error(
             &c.expr,
             "a between-nodes constraint may read the states only (it reads a control)",

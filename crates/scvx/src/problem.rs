@@ -632,15 +632,12 @@ impl Problem {
                 ));
             }
             let function = Function::compile(&[c.g.clone()], &args).map_err(sym(what.clone()))?;
-            if function.jacobian_pattern().entries().any(|(_, col)| col >= n) {
+            let ic =
+                IntervalConstraint { name: c.name.clone(), function, first: c.first, last: c.last };
+            if ic.reads_controls(n) {
                 return Err(bad(what, "it reads a control; it may read the states only"));
             }
-            interval_constraints.push(IntervalConstraint {
-                name: c.name.clone(),
-                function,
-                first: c.first,
-                last: c.last,
-            });
+            interval_constraints.push(ic);
         }
         // Outputs.
         let mut outputs = Vec::new();

@@ -178,6 +178,15 @@ pub struct IntervalConstraint {
     pub last: usize,
 }
 
+impl IntervalConstraint {
+    /// Whether `g` reads an input past the first `states` (the states come first, the
+    /// controls after them): an interval constraint may read the states only, because the
+    /// grid records the states and their sensitivities.
+    pub fn reads_controls(&self, states: usize) -> bool {
+        self.function.jacobian_pattern().entries().any(|(_, col)| col >= states)
+    }
+}
+
 /// A (generally nonconvex) constraint on `g(x_k, u_k)` at listed nodes.
 #[derive(Debug, Clone)]
 pub struct NodalConstraint {
@@ -1494,7 +1503,7 @@ impl Ptr {
             if c.function.n_inputs() != n + m {
                 return bad("it must be compiled against the groups [states], [controls]");
             }
-            if c.function.jacobian_pattern().entries().any(|(_, col)| col >= n) {
+            if c.reads_controls(n) {
                 return bad(
                     "it reads the controls; an interval constraint may read the states only",
                 );
