@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{armature, temp_file};
+use common::{armature, scratch, temp_file};
 use serde_json::Value;
 
 const TASK: &str = include_str!("../../../examples/pick-and-place.toml");
@@ -17,7 +17,8 @@ fn read_json(path: &std::path::Path) -> Value {
 
 #[test]
 fn demo_writes_json_csv_and_plots_and_meets_the_task() {
-    let dir = temp_file("demo", "placeholder", "").parent().unwrap().to_path_buf();
+    let scratch = scratch("demo");
+    let dir = scratch.path();
     let (json, csv, plots) = (dir.join("out/result.json"), dir.join("csv"), dir.join("plots"));
     let (code, stdout, stderr) = armature(&[
         "demo",
@@ -98,7 +99,8 @@ fn demo_writes_json_csv_and_plots_and_meets_the_task() {
 fn collision_example_converges_and_keeps_clear_of_the_ball() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../examples/pick-and-place-collision.toml");
-    let out = temp_file("collision", "placeholder", "").with_file_name("result.json");
+    let dir = scratch("collision");
+    let out = dir.path().join("result.json");
     let (code, _, stderr) =
         armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
     assert_eq!(code, 0, "{stderr}");
@@ -247,7 +249,8 @@ fn a_solve_stopped_by_its_cap_exits_3_and_writes_its_result() {
 #[test]
 fn a_closed_standard_error_does_not_stop_the_solve() {
     use std::process::{Command, Stdio};
-    let out = temp_file("closed-stderr", "placeholder", "").with_file_name("result.json");
+    let dir = scratch("closed-stderr");
+    let out = dir.path().join("result.json");
     let mut child = Command::new(env!("CARGO_BIN_EXE_armature"))
         .args(["demo", "-o", out.to_str().unwrap()])
         .stdout(Stdio::null())

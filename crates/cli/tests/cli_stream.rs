@@ -5,7 +5,7 @@ mod common;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 
-use common::{armature, temp_file};
+use common::{armature, scratch};
 use serde_json::Value;
 
 fn bin() -> Command {
@@ -36,7 +36,8 @@ fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
         .spawn()
         .unwrap();
     let _rest = wait_for(&mut listener, "listening on");
-    let result = temp_file("stream", "placeholder", "").with_file_name("result.json");
+    let dir = scratch("stream");
+    let result = dir.path().join("result.json");
     let (code, _, stderr) =
         armature(&["demo", "-q", "--stream", &run, "-o", result.to_str().unwrap()]);
     assert_eq!(code, 0, "{stderr}");

@@ -14,11 +14,30 @@ pub(crate) fn armature(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-/// Writes `text` to a fresh per-process temporary folder under `tag` and returns the path.
-pub(crate) fn temp_file(tag: &str, name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("armature-cli-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
+/// A fresh temporary folder `armature-cli-TAG-…` for one test, removed with everything in it
+/// when dropped.
+pub(crate) fn scratch(tag: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("armature-cli-{tag}-")).tempdir().unwrap()
+}
+
+/// A file written to its own [`scratch`] folder, which lives as long as this value: it
+/// dereferences to the file's path, and siblings (`with_file_name`) land in the same folder.
+pub(crate) struct TempFile {
+    _dir: tempfile::TempDir,
+    path: std::path::PathBuf,
+}
+
+impl std::ops::Deref for TempFile {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+/// Writes `text` to `name` in a fresh scratch folder tagged `tag`.
+pub(crate) fn temp_file(tag: &str, name: &str, text: &str) -> TempFile {
+    let dir = scratch(tag);
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    TempFile { _dir: dir, path }
 }
