@@ -28,60 +28,91 @@ fn main() {
     } else {
         (&[0.5, 1.0, 2.0], &[8, 10, 12])
     };
-    println!("variant                      λ_tr substeps  its        T    solve ms  outcome");
-    for interval_bounds in [false, true] {
-        for collision in [false, true] {
-            let s = seed::build_with(seed::Variant {
+    // Every setting runs the four variants back to back, so that each collision/plain time
+    // ratio compares runs that saw the same phase of a machine whose speed drifts.
+    let variants: Vec<(bool, bool)> =
+        [false, true].into_iter().flat_map(|i| [(false, i), (true, i)]).collect();
+    let seeds: Vec<seed::Seed> = variants
+        .iter()
+        .map(|&(collision, interval_bounds)| {
+            seed::build_with(seed::Variant {
                 collision,
                 interval_bounds,
                 without_clearance_peaks: has("nopeaks"),
-            });
-            let name = format!(
-                "{}{}",
-                if collision { "collision" } else { "plain" },
-                if interval_bounds { " + interval bounds" } else { "" }
-            );
-            let (mut its, mut tf, mut ms, mut good) = (Vec::new(), Vec::new(), Vec::new(), 0);
-            for &lam_tr in weights {
-                for &substeps in substeps {
-                    let mut settings = PtrSettings {
-                        lam_tr,
-                        discretization: DiscretizationSettings { substeps, ..Default::default() },
-                        ..PtrSettings::default()
-                    };
-                    if has("lagrangian") || has("qn") {
-                        settings.merit = Merit::Lagrangian { sigma: 0.5 };
-                    }
-                    settings.quasi_newton = has("qn");
-                    let mut ptr = Ptr::new(s.ocp.clone(), settings);
-                    let t0 = std::time::Instant::now();
-                    let r = ptr.solve(&s.x, &s.u, &s.s).expect("sizes match");
-                    let elapsed = t0.elapsed().as_secs_f64() * 1e3;
-                    let outcome = match (r.status, seed::check(&s, &r).missed(collision)) {
-                        (PtrStatus::Converged, None) => {
-                            good += 1;
-                            "meets the task".to_string()
-                        }
-                        (PtrStatus::Converged, Some(miss)) => format!("Converged, but {miss}"),
-                        (status, _) => format!("{status:?}"),
-                    };
-                    println!(
-                        "{name:<28} {lam_tr:>4} {substeps:>8} {:>4} {:>8.4} {elapsed:>10.1}  {outcome}",
-                        r.history.len(),
-                        r.final_time,
-                    );
-                    its.push(r.history.len() as f64);
-                    tf.push(r.final_time);
-                    ms.push(elapsed);
+            })
+        })
+        .collect();
+    // Per variant: one line per setting, and (iterations, final time, ms, meets the task).
+    let mut lines = vec![Vec::new(); variants.len()];
+    let mut runs: Vec<Vec<(f64, f64, f64, bool)>> = vec![Vec::new(); variants.len()];
+    for &lam_tr in weights {
+        for &substeps in substeps {
+            for (v, (&(collision, _), s)) in variants.iter().zip(&seeds).enumerate() {
+                let mut settings = PtrSettings {
+                    lam_tr,
+                    discretization: DiscretizationSettings { substeps, ..Default::default() },
+                    ..PtrSettings::default()
+                };
+                if has("lagrangian") || has("qn") {
+                    settings.merit = Merit::Lagrangian { sigma: 0.5 };
                 }
+                settings.quasi_newton = has("qn");
+                let mut ptr = Ptr::new(s.ocp.clone(), settings);
+                let t0 = std::time::Instant::now();
+                let r = ptr.solve(&s.x, &s.u, &s.s).expect("sizes match");
+                let elapsed = t0.elapsed().as_secs_f64() * 1e3;
+                let (good, outcome) = match (r.status, seed::check(s, &r).missed(collision)) {
+                    (PtrStatus::Converged, None) => (true, "meets the task".to_string()),
+                    (PtrStatus::Converged, Some(miss)) => (false, format!("Converged, but {miss}")),
+                    (status, _) => (false, format!("{status:?}")),
+                };
+                lines[v].push(format!(
+                    "{:<28} {lam_tr:>4} {substeps:>8} {:>4} {:>8.4} {elapsed:>10.1}  {outcome}",
+                    name(variants[v]),
+                    r.history.len(),
+                    r.final_time,
+                ));
+                runs[v].push((r.history.len() as f64, r.final_time, elapsed, good));
             }
-            println!(
-                "{name:<28} median        {:>4} {:>8.4} {:>10.1}  {good} of {} meet the task\n",
-                median(&mut its),
-                median(&mut tf),
-                median(&mut ms),
-                its.len()
-            );
         }
     }
+    println!("variant                      λ_tr substeps  its        T    solve ms  outcome");
+    for (v, &variant) in variants.iter().enumerate() {
+        for line in &lines[v] {
+            println!("{line}");
+        }
+        let column =
+            |f: fn(&(f64, f64, f64, bool)) -> f64| -> Vec<f64> { runs[v].iter().map(f).collect() };
+        println!(
+            "{:<28} median        {:>4} {:>8.4} {:>10.1}  {} of {} meet the task\n",
+            name(variant),
+            median(&mut column(|r| r.0)),
+            median(&mut column(|r| r.1)),
+            median(&mut column(|r| r.2)),
+            runs[v].iter().filter(|r| r.3).count(),
+            runs[v].len()
+        );
+    }
+    // Collision / plain solve time at each setting (variants 1 / 0 and 3 / 2).
+    for (c, p) in [(1, 0), (3, 2)] {
+        let mut ratios: Vec<f64> =
+            runs[c].iter().zip(&runs[p]).map(|(rc, rp)| rc.2 / rp.2).collect();
+        let (lo, hi) =
+            ratios.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &r| (a.min(r), b.max(r)));
+        println!(
+            "{} / {}: solve time ratio per setting, median {:.2} (range {lo:.2}–{hi:.2})",
+            name(variants[c]),
+            name(variants[p]),
+            median(&mut ratios)
+        );
+    }
+}
+
+/// A variant's name from (collision, interval bounds).
+fn name((collision, interval_bounds): (bool, bool)) -> String {
+    format!(
+        "{}{}",
+        if collision { "collision" } else { "plain" },
+        if interval_bounds { " + interval bounds" } else { "" }
+    )
 }
