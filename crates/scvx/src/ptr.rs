@@ -1173,13 +1173,26 @@ impl Ptr {
     /// The native interior point for this subproblem pattern.
     fn interior_point(&self) -> Result<InteriorPoint, crate::ipm::IpmError> {
         let cones = Cones { zero: self.n_zero, nonneg: self.n_nonneg, soc: self.socs.clone() };
-        InteriorPoint::new(
+        // Each node's states, controls and dilation are its stage; virtual controls and
+        // buffers take theirs from the rows they enter (the KKT ordering's hint).
+        let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
+        let (u0, s0, vp0, _) = self.layout();
+        let stages: Vec<Option<usize>> = (0..self.n_vars)
+            .map(|c| match c {
+                c if c < u0 => Some(c / n),
+                c if c < s0 => Some((c - u0) / m),
+                c if c < vp0 => Some(c - s0),
+                _ => None,
+            })
+            .collect();
+        InteriorPoint::with_stages(
             self.n_vars,
             (&self.p_colptr, &self.p_rowval),
             self.b.len(),
             (&self.a_colptr, &self.a_rowval),
             cones,
             self.settings.subproblem.interior_point(),
+            &stages,
         )
     }
 

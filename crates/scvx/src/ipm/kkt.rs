@@ -8,11 +8,12 @@
 //!
 //! with A₀ the equality rows of A and G its cone rows. A nonnegative row i adds
 //! `(z_i/s_i)·a_iᵀa_i`; a second-order cone adds `(W⁻¹G_c)ᵀ(W⁻¹G_c)` over the columns its
-//! rows touch. K is factored as LDLᵀ ([`Ldl`]: QDLDL's ordering and symbolic analysis, done
-//! once) with sign-aware dynamic regularization (+ for the primal block, − for the dual
+//! rows touch. K is factored as LDLᵀ ([`Ldl`]: QDLDL's symbolic analysis, done once, in
+//! AMD's ordering or, for a multistage problem, the cheapest staged one) with sign-aware dynamic regularization (+ for the primal block, − for the dual
 //! block), so K only has to be quasi-definite.
 
 use super::ldl::Ldl;
+use super::ordering::staged_orderings;
 use super::scaling::Scaling;
 use super::{Cones, IpmError, dot};
 use crate::sparse::{CscPattern, Rows};
@@ -49,12 +50,15 @@ pub(super) struct ReducedKkt {
 }
 
 impl ReducedKkt {
-    /// The pattern of K for P's pattern (upper triangle) and A's rows.
+    /// The pattern of K for P's pattern (upper triangle) and A's rows; with the `stages` of
+    /// the variables, factored in the cheapest of AMD and the staged orderings
+    /// ([`staged_orderings`]).
     pub(super) fn analyse(
         n: usize,
         (p_colptr, p_rowval): (&[usize], &[usize]),
         rows: &Rows,
         cones: &Cones,
+        stages: Option<&[Option<usize>]>,
     ) -> Result<ReducedKkt, IpmError> {
         let m0 = cones.zero;
         let dim = n + m0;
@@ -127,8 +131,12 @@ impl ReducedKkt {
         let nnz = pattern.nnz();
         let mut signs = vec![1i8; dim];
         signs[n..].fill(-1);
-        let ldl = Ldl::analyse(&pattern.colptr, &pattern.rowval, &signs, (1e-13, 2e-7))
-            .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
+        let candidates = stages
+            .map(|st| staged_orderings(&pattern.colptr, &pattern.rowval, st))
+            .unwrap_or_default();
+        let ldl =
+            Ldl::analyse(&pattern.colptr, &pattern.rowval, &signs, (1e-13, 2e-7), &candidates)
+                .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
         Ok(ReducedKkt {
             n,
             values: vec![0.0; nnz],

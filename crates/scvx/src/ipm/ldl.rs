@@ -1,7 +1,8 @@
 //! Numeric LDLᵀ factorization of a quasi-definite matrix on a pattern analysed once.
 //!
-//! The symbolic analysis — the approximate-minimum-degree ordering and the pattern of L — is
-//! QDLDL's (Clarabel's), run once in logical mode. QDLDL's numeric factorization then walks
+//! The symbolic analysis — the ordering and the pattern of L — is QDLDL's (Clarabel's), run
+//! once in logical mode, in its approximate-minimum-degree ordering or in a cheaper one the
+//! caller offers (the staged orderings of `ipm/ordering.rs`). QDLDL's numeric factorization then walks
 //! the elimination tree again for every row of every factorization to find that row's
 //! pattern; here the row patterns of L, and where each entry lands in its column, are
 //! computed once, so a factorization is only the up-looking arithmetic:
@@ -18,6 +19,7 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
 
+use super::ordering::factor_work;
 use crate::sparse::Rows;
 
 /// The factorization of `P Kₚ Pᵀ = L D Lᵀ` for one pattern of K (upper triangle).
@@ -45,18 +47,31 @@ pub(super) struct Ldl {
 
 impl Ldl {
     /// Analyse the upper-triangular pattern `(colptr, rowval)` of an n × n matrix whose
-    /// pivots should have the given signs (+1 / −1). `None` if QDLDL rejects the pattern.
+    /// pivots should have the given signs (+1 / −1), in QDLDL's AMD ordering or, if one of the
+    /// `candidates` orderings (`perm[new] = old`) needs less arithmetic
+    /// ([`factor_work`]), in the cheapest of those. `None` if QDLDL rejects the pattern.
     pub(super) fn analyse(
         colptr: &[usize],
         rowval: &[usize],
         signs: &[i8],
         (eps, delta): (f64, f64),
+        candidates: &[Vec<usize>],
     ) -> Option<Ldl> {
         let n = colptr.len() - 1;
         let nnz = rowval.len();
-        let settings = QDLDLSettings { logical: true, ..QDLDLSettings::default() };
         let pattern = CscMatrix::new(n, n, colptr.to_vec(), rowval.to_vec(), vec![1.0; nnz]);
-        let symbolic = QDLDLFactorisation::new(&pattern, Some(settings)).ok()?;
+        let symbolic_in = |perm: Option<Vec<usize>>| {
+            let settings = QDLDLSettings { logical: true, perm, ..QDLDLSettings::default() };
+            QDLDLFactorisation::new(&pattern, Some(settings)).ok()
+        };
+        let mut symbolic = symbolic_in(None)?;
+        for perm in candidates {
+            if let Some(s) = symbolic_in(Some(perm.clone()))
+                && factor_work(&s.L.colptr) < factor_work(&symbolic.L.colptr)
+            {
+                symbolic = s;
+            }
+        }
         let perm = symbolic.perm.clone();
         let mut iperm = vec![0; n];
         for (new, &old) in perm.iter().enumerate() {
@@ -204,7 +219,7 @@ mod tests {
             colptr.push(rowval.len());
         }
         let signs = [1, 1, -1, -1, 1];
-        let mut ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7)).unwrap();
+        let mut ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7), &[]).unwrap();
         assert!(ldl.factor(&vals));
         let b = [1.0, -2.0, 0.5, 3.0, -1.0];
         let mut x = b;
@@ -229,7 +244,7 @@ mod tests {
     #[test]
     fn a_wrong_signed_pivot_is_regularized() {
         // [1 0; 0 1] with the second pivot expected negative.
-        let mut ldl = Ldl::analyse(&[0, 1, 2], &[0, 1], &[1, -1], (1e-13, 1e-7)).unwrap();
+        let mut ldl = Ldl::analyse(&[0, 1, 2], &[0, 1], &[1, -1], (1e-13, 1e-7), &[]).unwrap();
         assert!(ldl.factor(&[1.0, 1.0]));
         let mut x = [1.0, 1.0];
         ldl.solve(&mut x);

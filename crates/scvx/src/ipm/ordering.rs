@@ -1,0 +1,204 @@
+//! Fill-reducing orderings of the reduced KKT matrix that follow a multistage problem's
+//! stages.
+//!
+//! QDLDL's approximate minimum degree (AMD) sees only the graph. On a trajectory
+//! optimization's KKT matrix it interleaves the nodes of the horizon, and its factor does
+//! more work than one that sweeps the horizon from its end: on the seed arm's subproblems a
+//! minimum degree constrained to eliminate stage by stage, last stage first, needs 31 % less
+//! arithmetic than AMD (plain) and 25 % less (with the collision rows). Whether a row that
+//! links stages k and k + 1 is best eliminated with k or with k + 1 depends on the problem
+//! (k for the plain seed, k + 1 with the collision rows; the other choice costs 7–52 % more
+//! than AMD), so [`staged_orderings`] offers both and the caller keeps the cheapest, AMD
+//! included. Forward sweeps (first stage first) never beat the best of these on the seed's
+//! four variants or the double integrator, and are not offered.
+//!
+//! ```text
+//! stage(v) = the caller's stage of a primal column, else the least (or greatest) stage of
+//!            its graph neighbours, propagated outwards from the staged columns;
+//! repeatedly eliminate, among the alive nodes of greatest stage, one of least degree (ties:
+//! lowest index), and join its neighbours into a clique.
+//! ```
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// The two staged candidate orderings (`perm[new] = old`) of the symmetric pattern whose
+/// upper triangle is `(colptr, rowval)`, given the stage of some of its first
+/// `stages.len()` columns: backward sweeps, with unstaged nodes taking the least or the
+/// greatest stage of their neighbours.
+pub(super) fn staged_orderings(
+    colptr: &[usize],
+    rowval: &[usize],
+    stages: &[Option<usize>],
+) -> Vec<Vec<usize>> {
+    let adj = adjacency(colptr, rowval);
+    [false, true]
+        .into_iter()
+        .map(|greatest| {
+            let key: Vec<i64> =
+                propagate(&adj, stages, greatest).iter().map(|&s| -(s as i64)).collect();
+            staged_minimum_degree(&adj, &key)
+        })
+        .collect()
+}
+
+/// Arithmetic of an up-looking LDLᵀ factorization with these column counts of L (strictly
+/// lower): `Σ c(c + 1)/2`.
+pub(super) fn factor_work(l_colptr: &[usize]) -> usize {
+    l_colptr.windows(2).map(|w| (w[1] - w[0]) * (w[1] - w[0] + 1) / 2).sum()
+}
+
+/// Neighbours of each node (sorted, no self loops) of the symmetric pattern.
+fn adjacency(colptr: &[usize], rowval: &[usize]) -> Vec<Vec<usize>> {
+    let dim = colptr.len() - 1;
+    let mut adj = vec![Vec::new(); dim];
+    for c in 0..dim {
+        for &r in &rowval[colptr[c]..colptr[c + 1]] {
+            if r != c {
+                adj[r].push(c);
+                adj[c].push(r);
+            }
+        }
+    }
+    for a in &mut adj {
+        a.sort_unstable();
+        a.dedup();
+    }
+    adj
+}
+
+/// Every node's stage: the given ones, then in rounds each unstaged node with staged
+/// neighbours takes their least (or greatest) stage; nodes never reached take stage 0.
+fn propagate(adj: &[Vec<usize>], given: &[Option<usize>], greatest: bool) -> Vec<usize> {
+    let mut stage: Vec<Option<usize>> =
+        (0..adj.len()).map(|v| given.get(v).copied().flatten()).collect();
+    loop {
+        let next: Vec<Option<usize>> = (0..adj.len())
+            .map(|v| {
+                stage[v].or_else(|| {
+                    let known = adj[v].iter().filter_map(|&w| stage[w]);
+                    if greatest { known.max() } else { known.min() }
+                })
+            })
+            .collect();
+        if next == stage {
+            return stage.into_iter().map(|s| s.unwrap_or(0)).collect();
+        }
+        stage = next;
+    }
+}
+
+/// Minimum degree on the elimination graph, restricted at each step to the alive nodes of
+/// least `key` (ties: lowest index). The queue holds (key, degree, node) entries and skips
+/// the stale ones; neighbour sets are unsorted, merged through a stamp array.
+fn staged_minimum_degree(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
+    let dim = adj.len();
+    let mut g: Vec<Vec<usize>> = adj.to_vec();
+    let mut queue: BinaryHeap<Reverse<(i64, usize, usize)>> =
+        (0..dim).map(|v| Reverse((key[v], g[v].len(), v))).collect();
+    let mut alive = vec![true; dim];
+    let mut stamp = vec![usize::MAX; dim];
+    let mut order = Vec::with_capacity(dim);
+    while let Some(Reverse((_, degree, v))) = queue.pop() {
+        if !alive[v] || degree != g[v].len() {
+            continue;
+        }
+        alive[v] = false;
+        order.push(v);
+        let clique = std::mem::take(&mut g[v]);
+        for &a in &clique {
+            // g[a] ← (g[a] ∪ clique) ∖ {a, v}.
+            let ga = &mut g[a];
+            ga.retain(|&w| w != v);
+            for &w in ga.iter() {
+                stamp[w] = a;
+            }
+            stamp[a] = a;
+            for &w in &clique {
+                if stamp[w] != a {
+                    ga.push(w);
+                }
+            }
+            queue.push(Reverse((key[a], ga.len(), a)));
+        }
+    }
+    order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Upper-triangle pattern of a symmetric graph given by its edges (plus the diagonal).
+    fn pattern(dim: usize, edges: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+        let mut cols = vec![vec![]; dim];
+        for (c, col) in cols.iter_mut().enumerate() {
+            col.push(c);
+        }
+        for &(a, b) in edges {
+            cols[a.max(b)].push(a.min(b));
+        }
+        let (mut colptr, mut rowval) = (vec![0], vec![]);
+        for mut col in cols {
+            col.sort_unstable();
+            rowval.extend(col);
+            colptr.push(rowval.len());
+        }
+        (colptr, rowval)
+    }
+
+    fn is_permutation(p: &[usize], dim: usize) -> bool {
+        let mut seen = vec![false; dim];
+        p.len() == dim && p.iter().all(|&v| v < dim && !std::mem::replace(&mut seen[v], true))
+    }
+
+    /// An arrow (a hub joined to every leaf): minimum degree eliminates the leaves before
+    /// the hub, whatever the hub's index (the hub ties with the last leaf at degree 1), so
+    /// the factor has no fill.
+    #[test]
+    fn minimum_degree_eliminates_an_arrows_leaves_first() {
+        let edges: Vec<_> = (1..6).map(|leaf| (0, leaf)).collect();
+        let (cp, rv) = pattern(6, &edges);
+        let order = staged_minimum_degree(&adjacency(&cp, &rv), &[0; 6]);
+        assert!(is_permutation(&order, 6));
+        assert!(order[..4].iter().all(|&v| v != 0), "{order:?}");
+    }
+
+    /// The stage key overrides degree: stage 1's leaf waits for all of stage 0.
+    #[test]
+    fn stages_are_eliminated_in_key_order() {
+        // A path 0 – 1 – 2 – 3 with stages [1, 0, 0, 1].
+        let (cp, rv) = pattern(4, &[(0, 1), (1, 2), (2, 3)]);
+        let adj = adjacency(&cp, &rv);
+        let order = staged_minimum_degree(&adj, &[1, 0, 0, 1]);
+        assert!(is_permutation(&order, 4));
+        assert!(order[..2].iter().all(|v| [1, 2].contains(v)), "{order:?}");
+        let backward = staged_minimum_degree(&adj, &[-1, 0, 0, -1]);
+        assert!(backward[..2].iter().all(|v| [0, 3].contains(v)), "{backward:?}");
+    }
+
+    /// Unstaged nodes take the least or greatest stage of their neighbours, in rounds: a
+    /// node two links away from the staged ones is staged through the first.
+    #[test]
+    fn stages_propagate_outwards() {
+        // 0 (stage 2) – 2 – 1 (stage 5), and 3 hangs off 2; 4 is isolated.
+        let (cp, rv) = pattern(5, &[(0, 2), (1, 2), (2, 3)]);
+        let adj = adjacency(&cp, &rv);
+        let given = [Some(2), Some(5)];
+        assert_eq!(propagate(&adj, &given, false), vec![2, 5, 2, 2, 0]);
+        assert_eq!(propagate(&adj, &given, true), vec![2, 5, 5, 5, 0]);
+    }
+
+    /// Every candidate is a permutation, and the work count is the up-looking one.
+    #[test]
+    fn candidates_are_permutations_and_work_counts_columns() {
+        let edges: Vec<_> = (0..9).map(|v| (v, v + 1)).chain([(0, 5), (2, 7)]).collect();
+        let (cp, rv) = pattern(10, &edges);
+        let stages: Vec<Option<usize>> = (0..10).map(|v| (v % 3 != 0).then_some(v / 2)).collect();
+        let candidates = staged_orderings(&cp, &rv, &stages);
+        assert_eq!(candidates.len(), 2);
+        assert!(candidates.iter().all(|p| is_permutation(p, 10)));
+        // Columns with 0, 1, 2 and 3 entries below the diagonal.
+        assert_eq!(factor_work(&[0, 0, 1, 3, 6]), 1 + 3 + 6);
+    }
+}
