@@ -294,11 +294,13 @@ pub enum Merit {
 #[serde(rename_all = "snake_case")]
 pub enum SubproblemSolver {
     /// [`crate::ipm::InteriorPoint`], warm-started from the previous subproblem. A solve
-    /// that does not reach the tolerance at a heavy trust-region weight (λ_tr > 1e3, which
-    /// can leave the KKT matrix too badly scaled for its refined directions) is retried cold
-    /// with the objective divided by λ_tr (and its absolute gap tolerance alike, see
-    /// [`crate::ipm::InteriorPoint::set_objective_scale`]), and the rest of the run then
-    /// solves scaled; otherwise, or if that fails too, Clarabel solves the subproblem.
+    /// that does not reach the tolerance at a heavy trust-region weight (λ_tr > 1e3) is
+    /// retried cold with the objective divided by λ_tr (and its absolute gap tolerance
+    /// alike, see [`crate::ipm::InteriorPoint::set_objective_scale`]), and the rest of the
+    /// run then solves scaled; otherwise, or if that fails too, Clarabel solves the
+    /// subproblem. (The retry is a safeguard: the one seed case that needed it failed on the
+    /// interior point's former objective-gap test, and since the complementarity-gap test
+    /// no first-order run of the seed's neighbourhood grids reaches the cap.)
     InteriorPoint,
     /// Clarabel for every subproblem (cold starts: Clarabel has no warm start).
     Clarabel,
@@ -320,6 +322,8 @@ pub struct SubproblemSettings {
     /// takes the same one.
     pub solver: SubproblemSolver,
     /// Absolute and relative duality-gap and feasibility tolerance. Default 1e-8 (Clarabel's).
+    /// The native interior point measures the gap as the complementarity `sᵀz` (see
+    /// [`crate::ipm::IpmSettings::tolerance`]).
     pub tolerance: f64,
     /// Tolerance (absolute and relative) of Clarabel's iterative refinement of each KKT
     /// solve. Default 1e-9: Clarabel's own 1e-13 spends ~20 % of the seed solve refining directions
@@ -1156,8 +1160,12 @@ impl Ptr {
         }
     }
 
-    /// Sizes of the convex subproblem (fixed at construction).
+    /// Sizes of the convex subproblem (fixed at construction). The reduced KKT matrix's
+    /// come from the interior point of the running (or last) solve; before the first solve
+    /// one is analysed for them.
     pub fn dimensions(&self) -> SubproblemDimensions {
+        let running =
+            self.state.as_ref().and_then(|st| st.ipm.as_ref()).map(|ipm| ipm.kkt_nonzeros());
         SubproblemDimensions {
             variables: self.n_vars,
             equality_rows: self.n_zero,
@@ -1166,7 +1174,8 @@ impl Ptr {
             cone_rows: self.socs.iter().sum(),
             nonzeros: self.a_rowval.len(),
             hessian_nonzeros: self.p_rowval.len(),
-            reduced_kkt_nonzeros: self.interior_point().ok().map(|ipm| ipm.kkt_nonzeros()),
+            reduced_kkt_nonzeros: running
+                .or_else(|| self.interior_point().ok().map(|ipm| ipm.kkt_nonzeros())),
         }
     }
 
@@ -2079,10 +2088,9 @@ impl Ptr {
         }
         if let (SubproblemSolver::InteriorPoint, Some(ipm)) = (set.solver, st.ipm.as_mut()) {
             // The objective as given, unless a solve of this run already needed it scaled:
-            // then divided by λ_tr. A heavy trust-region weight leaves the KKT matrix too
-            // badly scaled for the refined directions, and the iterates creep to the cap.
-            // The minimizer is the same; the duals scale back. A failure at a lighter λ_tr
-            // goes to Clarabel as it is.
+            // then divided by λ_tr (a safeguard for a KKT matrix a heavy trust-region weight
+            // leaves badly scaled). The minimizer is the same; the duals scale back. A
+            // failure at a lighter λ_tr goes to Clarabel as it is.
             let sigma = st.lam_tr.max(1.0);
             let mut scaled = st.scale_objective;
             loop {
