@@ -1194,15 +1194,15 @@ impl Ptr {
                 _ => None,
             })
             .collect();
-        InteriorPoint::with_stages(
+        InteriorPoint::new(
             self.n_vars,
             (&self.p_colptr, &self.p_rowval),
             self.b.len(),
             (&self.a_colptr, &self.a_rowval),
             cones,
             self.settings.subproblem.interior_point(),
-            &stages,
-        )
+        )?
+        .with_stages(&stages)
     }
 
     /// The problem.

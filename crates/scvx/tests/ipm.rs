@@ -208,9 +208,10 @@ proptest! {
         prop_assert_eq!(status, IpmStatus::Solved);
         let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
         let (ac, ar, av) = csc(pr.m, pr.n, &pr.a, false);
-        let mut staged = InteriorPoint::with_stages(
-            pr.n, (&pc, &prw), pr.m, (&ac, &ar), pr.cones.clone(), settings(1e-9), &stages[..pr.n],
-        ).unwrap();
+        let mut staged =
+            InteriorPoint::new(pr.n, (&pc, &prw), pr.m, (&ac, &ar), pr.cones.clone(), settings(1e-9))
+                .and_then(|ipm| ipm.with_stages(&stages[..pr.n]))
+                .unwrap();
         prop_assert_eq!(staged.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
         let (primal, dual, gap, inside) = certificate(&pr, &staged);
         let xn = staged.x().iter().fold(1.0f64, |a, v| a.max(v.abs()));
@@ -270,16 +271,10 @@ fn stages_never_cost_more_than_amd_on_a_horizon() {
     let mut amd =
         InteriorPoint::new(n, (&pc, &prw), m, (&ac, &ar), cones.clone(), IpmSettings::default())
             .unwrap();
-    let mut staged = InteriorPoint::with_stages(
-        n,
-        (&pc, &prw),
-        m,
-        (&ac, &ar),
-        cones,
-        IpmSettings::default(),
-        &stages,
-    )
-    .unwrap();
+    let mut staged =
+        InteriorPoint::new(n, (&pc, &prw), m, (&ac, &ar), cones, IpmSettings::default())
+            .and_then(|ipm| ipm.with_stages(&stages))
+            .unwrap();
     let q = vec![0.0; n];
     assert_eq!(amd.solve(&pv, &q, &av, &b), IpmStatus::Solved);
     assert_eq!(staged.solve(&pv, &q, &av, &b), IpmStatus::Solved);
@@ -294,15 +289,8 @@ fn stages_never_cost_more_than_amd_on_a_horizon() {
     assert!(staged.x()[(nodes - 1) * nx].abs() < 1e-7);
     // Stages of the wrong length are refused.
     let cones = Cones { zero: m0, nonneg: m - m0, soc: vec![] };
-    let short = InteriorPoint::with_stages(
-        n,
-        (&pc, &prw),
-        m,
-        (&ac, &ar),
-        cones,
-        IpmSettings::default(),
-        &stages[1..],
-    );
+    let short = InteriorPoint::new(n, (&pc, &prw), m, (&ac, &ar), cones, IpmSettings::default())
+        .and_then(|ipm| ipm.with_stages(&stages[1..]));
     assert!(short.is_err());
 }
 
