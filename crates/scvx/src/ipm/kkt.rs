@@ -9,8 +9,9 @@
 //! with A₀ the equality rows of A and G its cone rows. A nonnegative row i adds
 //! `(z_i/s_i)·a_iᵀa_i`; a second-order cone adds `(W⁻¹G_c)ᵀ(W⁻¹G_c)` over the columns its
 //! rows touch. K is factored as LDLᵀ ([`Ldl`]: QDLDL's symbolic analysis, done once, in
-//! AMD's ordering or, for a multistage problem, the cheapest staged one) with sign-aware dynamic regularization (+ for the primal block, − for the dual
-//! block), so K only has to be quasi-definite.
+//! AMD's ordering or, for a multistage problem, the cheapest staged one) with sign-aware
+//! dynamic regularization (+ for the primal block, − for the dual block), so K only has to
+//! be quasi-definite.
 
 use super::ldl::Ldl;
 use super::ordering::staged_orderings;

@@ -2,9 +2,9 @@
 //!
 //! The symbolic analysis — the ordering and the pattern of L — is QDLDL's (Clarabel's), run
 //! once in logical mode, in its approximate-minimum-degree ordering or in a cheaper one the
-//! caller offers (the staged orderings of `ipm/ordering.rs`). QDLDL's numeric factorization then walks
-//! the elimination tree again for every row of every factorization to find that row's
-//! pattern; here the row patterns of L, and where each entry lands in its column, are
+//! caller offers (the staged orderings of `ipm/ordering.rs`). QDLDL's numeric factorization
+//! then walks the elimination tree again for every row of every factorization to find that
+//! row's pattern; here the row patterns of L, and where each entry lands in its column, are
 //! computed once, so a factorization is only the up-looking arithmetic:
 //!
 //! ```text
