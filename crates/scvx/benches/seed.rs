@@ -3,7 +3,8 @@
 //! default native interior point) for every subproblem, the collision variant with either
 //! solver (and without the clearances' peak rows, for comparison), the plain and collision
 //! variants with interval bounds (the velocity limits also enforced between the nodes), and
-//! one discretization of the guess.
+//! one discretization of the guess; also problem construction alone and with the interior
+//! point's KKT analysis.
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -16,6 +17,18 @@ fn bench(c: &mut Criterion) {
     let s = seed::build();
     let mut g = c.benchmark_group("seed_pick_and_place");
     g.sample_size(10);
+    // Problem construction (the subproblem's pattern), and with it the interior point's KKT
+    // analysis (orderings and symbolic factorization), which a solve does once per `Ptr`
+    // (at its first subproblem; `solve` below reuses it).
+    g.bench_function("construct", |b| {
+        b.iter(|| black_box(Ptr::new(s.ocp.clone(), PtrSettings::default())))
+    });
+    g.bench_function("construct_and_analyse_kkt", |b| {
+        b.iter(|| {
+            let ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+            black_box(ptr.dimensions().reduced_kkt_nonzeros)
+        })
+    });
     let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
