@@ -28,6 +28,10 @@ struct Term {
     pb: usize,
 }
 
+/// The LDLᵀ factor's dynamic regularization (ε, δ): a pivot of the wrong sign, or within ε
+/// of zero, becomes ±δ.
+const LDL_REGULARIZATION: (f64, f64) = (1e-13, 2e-7);
+
 /// The reduced KKT matrix, its fill plan and its factorization. `rhs` in, `sol` out.
 pub(super) struct ReducedKkt {
     n: usize,
@@ -45,21 +49,22 @@ pub(super) struct ReducedKkt {
     pairs: Vec<(usize, usize, usize)>,
     /// W⁻¹G_c of the cone being assembled (d × columns, column-major).
     gt: Vec<f64>,
+    /// K's pattern and pivot signs, kept for [`reorder`](Self::reorder).
+    pattern: CscPattern,
+    signs: Vec<i8>,
     ldl: Ldl,
     pub(super) rhs: Vec<f64>,
     pub(super) sol: Vec<f64>,
 }
 
 impl ReducedKkt {
-    /// The pattern of K for P's pattern (upper triangle) and A's rows; with the `stages` of
-    /// the variables, factored in the cheapest of AMD and the staged orderings
-    /// ([`staged_orderings`]).
+    /// The pattern of K for P's pattern (upper triangle) and A's rows, factored in AMD's
+    /// ordering.
     pub(super) fn analyse(
         n: usize,
         (p_colptr, p_rowval): (&[usize], &[usize]),
         rows: &Rows,
         cones: &Cones,
-        stages: Option<&[Option<usize>]>,
     ) -> Result<ReducedKkt, IpmError> {
         let m0 = cones.zero;
         let dim = n + m0;
@@ -132,12 +137,8 @@ impl ReducedKkt {
         let nnz = pattern.nnz();
         let mut signs = vec![1i8; dim];
         signs[n..].fill(-1);
-        let candidates = stages
-            .map(|st| staged_orderings(&pattern.colptr, &pattern.rowval, st))
-            .unwrap_or_default();
-        let ldl =
-            Ldl::analyse(&pattern.colptr, &pattern.rowval, &signs, (1e-13, 2e-7), &candidates)
-                .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
+        let ldl = Ldl::analyse(&pattern.colptr, &pattern.rowval, &signs, LDL_REGULARIZATION)
+            .ok_or(IpmError::Pattern("the KKT pattern cannot be factored"))?;
         Ok(ReducedKkt {
             n,
             values: vec![0.0; nnz],
@@ -150,10 +151,27 @@ impl ReducedKkt {
             pair_ptr,
             pairs,
             gt: vec![0.0; max_gt],
+            pattern,
+            signs,
             ldl,
             rhs: vec![0.0; dim],
             sol: vec![0.0; dim],
         })
+    }
+
+    /// Re-orders the factorization for a multistage problem whose variables have these
+    /// `stages`: the cheapest of the staged orderings ([`staged_orderings`]) replaces AMD's
+    /// if it needs less arithmetic.
+    pub(super) fn reorder(&mut self, stages: &[Option<usize>]) {
+        let (colptr, rowval) = (&self.pattern.colptr, &self.pattern.rowval);
+        let candidates = staged_orderings(colptr, rowval, stages);
+        let regularization = LDL_REGULARIZATION;
+        let than = self.ldl.work();
+        if let Some(ldl) =
+            Ldl::cheaper(colptr, rowval, &self.signs, regularization, &candidates, than)
+        {
+            self.ldl = ldl;
+        }
     }
 
     /// Nonzeros of K (upper triangle) and of its factor L.

@@ -47,31 +47,50 @@ pub(super) struct Ldl {
 
 impl Ldl {
     /// Analyse the upper-triangular pattern `(colptr, rowval)` of an n × n matrix whose
-    /// pivots should have the given signs (+1 / −1), in QDLDL's AMD ordering or, if one of the
-    /// `candidates` orderings (`perm[new] = old`) needs less arithmetic
-    /// ([`factor_work`]), in the cheapest of those. `None` if QDLDL rejects the pattern.
+    /// pivots should have the given signs (+1 / −1), in QDLDL's AMD ordering. `None` if
+    /// QDLDL rejects the pattern.
     pub(super) fn analyse(
         colptr: &[usize],
         rowval: &[usize],
         signs: &[i8],
-        (eps, delta): (f64, f64),
-        candidates: &[Vec<usize>],
+        regularization: (f64, f64),
     ) -> Option<Ldl> {
+        let symbolic = symbolic(colptr, rowval, None)?;
+        Some(Ldl::from_symbolic(colptr, rowval, signs, regularization, &symbolic))
+    }
+
+    /// The same pattern analysed in the cheapest of the `candidates` orderings
+    /// (`perm[new] = old`, by [`factor_work`]), if that needs less arithmetic than `than`.
+    pub(super) fn cheaper(
+        colptr: &[usize],
+        rowval: &[usize],
+        signs: &[i8],
+        regularization: (f64, f64),
+        candidates: &[Vec<usize>],
+        than: usize,
+    ) -> Option<Ldl> {
+        let best = candidates
+            .iter()
+            .filter_map(|perm| symbolic(colptr, rowval, Some(perm.clone())))
+            .min_by_key(|s| factor_work(&s.L.colptr))?;
+        (factor_work(&best.L.colptr) < than)
+            .then(|| Ldl::from_symbolic(colptr, rowval, signs, regularization, &best))
+    }
+
+    /// Arithmetic of one factorization ([`factor_work`]).
+    pub(super) fn work(&self) -> usize {
+        factor_work(&self.l_colptr)
+    }
+
+    fn from_symbolic(
+        colptr: &[usize],
+        rowval: &[usize],
+        signs: &[i8],
+        (eps, delta): (f64, f64),
+        symbolic: &QDLDLFactorisation<f64>,
+    ) -> Ldl {
         let n = colptr.len() - 1;
         let nnz = rowval.len();
-        let pattern = CscMatrix::new(n, n, colptr.to_vec(), rowval.to_vec(), vec![1.0; nnz]);
-        let symbolic_in = |perm: Option<Vec<usize>>| {
-            let settings = QDLDLSettings { logical: true, perm, ..QDLDLSettings::default() };
-            QDLDLFactorisation::new(&pattern, Some(settings)).ok()
-        };
-        let mut symbolic = symbolic_in(None)?;
-        for perm in candidates {
-            if let Some(s) = symbolic_in(Some(perm.clone()))
-                && factor_work(&s.L.colptr) < factor_work(&symbolic.L.colptr)
-            {
-                symbolic = s;
-            }
-        }
         let perm = symbolic.perm.clone();
         let mut iperm = vec![0; n];
         for (new, &old) in perm.iter().enumerate() {
@@ -98,7 +117,7 @@ impl Ldl {
         let l_colptr = symbolic.L.colptr.clone();
         let l_row = symbolic.L.rowval.clone();
         let l_rows = Rows::new(n, &l_colptr, &l_row);
-        Some(Ldl {
+        Ldl {
             perm,
             a_colptr,
             a_entries,
@@ -113,7 +132,7 @@ impl Ldl {
             delta,
             y: vec![0.0; n],
             work: vec![0.0; n],
-        })
+        }
     }
 
     /// Nonzeros of L (strictly lower).
@@ -188,6 +207,19 @@ impl Ldl {
     }
 }
 
+/// QDLDL's symbolic analysis (logical mode) of the pattern in the ordering `perm`
+/// (`None`: its AMD).
+fn symbolic(
+    colptr: &[usize],
+    rowval: &[usize],
+    perm: Option<Vec<usize>>,
+) -> Option<QDLDLFactorisation<f64>> {
+    let n = colptr.len() - 1;
+    let pattern = CscMatrix::new(n, n, colptr.to_vec(), rowval.to_vec(), vec![1.0; rowval.len()]);
+    let settings = QDLDLSettings { logical: true, perm, ..QDLDLSettings::default() };
+    QDLDLFactorisation::new(&pattern, Some(settings)).ok()
+}
+
 /// The pivot signs in the permuted order.
 fn perm_signs(signs: &[i8], perm: &[usize]) -> Vec<f64> {
     perm.iter().map(|&old| f64::from(signs[old])).collect()
@@ -219,7 +251,7 @@ mod tests {
             colptr.push(rowval.len());
         }
         let signs = [1, 1, -1, -1, 1];
-        let mut ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7), &[]).unwrap();
+        let mut ldl = Ldl::analyse(&colptr, &rowval, &signs, (1e-13, 2e-7)).unwrap();
         assert!(ldl.factor(&vals));
         let b = [1.0, -2.0, 0.5, 3.0, -1.0];
         let mut x = b;
@@ -244,7 +276,7 @@ mod tests {
     #[test]
     fn a_wrong_signed_pivot_is_regularized() {
         // [1 0; 0 1] with the second pivot expected negative.
-        let mut ldl = Ldl::analyse(&[0, 1, 2], &[0, 1], &[1, -1], (1e-13, 1e-7), &[]).unwrap();
+        let mut ldl = Ldl::analyse(&[0, 1, 2], &[0, 1], &[1, -1], (1e-13, 1e-7)).unwrap();
         assert!(ldl.factor(&[1.0, 1.0]));
         let mut x = [1.0, 1.0];
         ldl.solve(&mut x);

@@ -284,7 +284,7 @@ impl InteriorPoint {
             return bad("row index of A out of range");
         }
         let rows = Rows::new(m, a_colptr, a_rowval);
-        let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones, None)?;
+        let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones)?;
         let cone_rows = m - cones.zero;
         Ok(InteriorPoint {
             n,
@@ -317,7 +317,7 @@ impl InteriorPoint {
         })
     }
 
-    /// For a multistage problem (a trajectory's nodes): re-analyses the KKT matrix with
+    /// For a multistage problem (a trajectory's nodes): re-orders the KKT factorization for
     /// `stages`, each variable's stage (node) or `None` for a variable that belongs to no
     /// node in particular (a slack, a virtual control). The matrix is then factored in the
     /// ordering that needs the least arithmetic among AMD and two minimum-degree orderings
@@ -352,8 +352,7 @@ impl InteriorPoint {
         if stages.len() != self.n {
             return Err(IpmError::Pattern("stages must have one entry per variable"));
         }
-        let p = (self.p_colptr.as_slice(), self.p_rowval.as_slice());
-        self.kkt = ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, Some(stages))?;
+        self.kkt.reorder(stages);
         Ok(self)
     }
 
