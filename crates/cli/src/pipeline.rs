@@ -272,6 +272,9 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             if !(spec.margin.is_finite() && spec.margin >= 0.0) {
                 return Err(src.error(c, format!("margin {} must be ≥ 0", spec.margin)));
             }
+            if spec.activation.is_nan() || spec.activation <= 0.0 {
+                return Err(src.error(c, format!("activation {} must be > 0", spec.activation)));
+            }
             let scene = Scene {
                 self_collision: spec.self_collision,
                 allowed: spec.allowed.clone(),
@@ -280,7 +283,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 obstacles: spec.obstacles.clone(),
             };
             let model = scene.model(&chain).map_err(|e| src.error(c, e.to_string()))?;
-            Some((model, spec.margin, spec.between_nodes))
+            Some((model, spec.margin, spec.between_nodes.then_some(spec.activation)))
         }
     };
     let mode = match task.initialization.ik.get_ref().as_str() {
@@ -373,15 +376,16 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         });
     }
     let mut between_nodes = Vec::new();
-    if let Some((model, margin, peaks)) = &collision {
+    if let Some((model, margin, activation)) = &collision {
         let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
         let distances = model.symbolic_distances(&positions);
-        if *peaks && !distances.is_empty() {
+        if let (Some(activation), false) = (activation, distances.is_empty()) {
             between_nodes.push(BetweenNodes {
                 name: "clearance".into(),
                 g: Expr::concat(&distances.iter().map(|(_, d)| *margin - d).collect::<Vec<_>>()),
                 first: 0,
                 last: nodes - 1,
+                activation: Some(*activation),
             });
         }
         for (pair, d) in distances {

@@ -245,6 +245,11 @@ pub struct ConstraintSpec {
     /// an inequality of the states only. Default false.
     #[serde(default)]
     pub between_nodes: bool,
+    /// With `between_nodes`: a segment's peak rows stay out of the subproblem while its
+    /// peaks lie further than this below the bound (in the constraint's units; scvx's
+    /// `IntervalConstraint::activation`). Default: always in.
+    #[serde(default)]
+    pub activation: Option<f64>,
 }
 
 /// CTCS penalty names (for the schema).
@@ -576,14 +581,24 @@ fn between(
     let us: Vec<Expr> = controls.iter().map(Control::expr).collect();
     let function = armature_symbolic::Function::compile(&[k.function().clone()], &[&xs, &us])
         .map_err(|e| src.error(&c.expr, e.to_string()))?;
-    let checked = IntervalConstraint { name: k.name().to_string(), function, first, last };
+    let checked =
+        IntervalConstraint { name: k.name().to_string(), function, first, last, activation: None };
     if checked.reads_controls(states.iter().map(State::size).sum()) {
         return Err(src.error(
             &c.expr,
             "a between-nodes constraint may read the states only (it reads a control)",
         ));
     }
-    Ok(BetweenNodes { name: k.name().to_string(), g: k.function().clone(), first, last })
+    if let Some(a) = c.activation.filter(|a| a.is_nan() || *a <= 0.0) {
+        return Err(src.error(&c.expr, format!("activation {a} must be > 0")));
+    }
+    Ok(BetweenNodes {
+        name: k.name().to_string(),
+        g: k.function().clone(),
+        first,
+        last,
+        activation: c.activation,
+    })
 }
 
 /// Whether a TOML text is a problem file (it has `states`) rather than a task file.

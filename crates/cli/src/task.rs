@@ -213,6 +213,13 @@ pub struct CollisionSpec {
     /// solve takes far more iterations without these rows.
     #[serde(default = "yes")]
     pub between_nodes: bool,
+    /// With `between_nodes`: a segment's peak rows stay out of the subproblem while every
+    /// pair there keeps more than `margin` plus this much clearance (m), which makes the
+    /// subproblems smaller without changing the steps (rows that far from their bound are
+    /// slack); the merit, the integral and the nodal rows keep watching the segment. Default
+    /// 0.02.
+    #[serde(default = "default_activation")]
+    pub activation: f64,
     /// Check non-adjacent link pairs. Default true.
     #[serde(default = "yes")]
     pub self_collision: bool,
@@ -300,6 +307,10 @@ struct HalfSpaceSchema {
 
 fn default_margin() -> f64 {
     0.002
+}
+
+fn default_activation() -> f64 {
+    0.02
 }
 
 fn yes() -> bool {

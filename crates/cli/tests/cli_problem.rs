@@ -135,6 +135,13 @@ fn expression_errors_point_at_their_character_in_the_file() {
         "states only",
     );
     bad(
+        "between-nodes-activation",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"abs(v) <= v_max\"\nbetween_nodes = true\nactivation = -0.1",
+        &format!("{l}:8"),
+        "activation -0.1 must be > 0",
+    );
+    bad(
         "between-nodes-equality",
         "expr = \"abs(v) <= v_max\"",
         "expr = \"v == v_max\"\nbetween_nodes = true",

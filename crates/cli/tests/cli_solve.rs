@@ -215,6 +215,12 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "table_height = 0.0   # m; the end effector stays above it\n[collision]\nlinks = [{ start = \"base\", end = \"elbow\", radius = -0.05 }]",
         "radius",
     );
+    bad(
+        "collision-activation",
+        "table_height = 0.0   # m; the end effector stays above it",
+        "table_height = 0.0   # m; the end effector stays above it\n[collision]\nactivation = 0.0\nlinks = [{ start = \"base\", end = \"elbow\", radius = 0.05 }]",
+        "activation 0 must be > 0",
+    );
     let solver = "subproblem_solver = \"interior_point\"";
     bad("merit", solver, "merit = \"newton\"", "merit 'newton'");
     bad(

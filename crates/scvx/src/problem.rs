@@ -294,7 +294,13 @@ pub struct Ball {
 /// let problem = Problem {
 ///     dynamics: vec![v.expr(), a.expr()],
 ///     constraints: vec![ProblemConstraint::from(g.le(0.0).named("outside"))],
-///     between_nodes: vec![BetweenNodes { name: "outside".into(), g, first: 0, last: 5 }],
+///     between_nodes: vec![BetweenNodes {
+///         name: "outside".into(),
+///         g,
+///         first: 0,
+///         last: 5,
+///         activation: None,
+///     }],
 ///     states: vec![p, v],
 ///     controls: vec![a],
 ///     time: Time::Free { min: 0.0, max: 10.0, guess: 4.0, minimize: true },
@@ -316,6 +322,10 @@ pub struct BetweenNodes {
     pub first: usize,
     /// One past the last segment (= the last node); `first < last ≤ N − 1`.
     pub last: usize,
+    /// Activation distance in `g`'s units: a segment's rows are left out of the subproblem
+    /// while all its peaks lie further than this below the bound (see
+    /// [`IntervalConstraint::activation`]); `None` keeps every row.
+    pub activation: Option<f64>,
 }
 
 /// A trajectory optimization problem by name. Build with struct-update syntax from
@@ -632,8 +642,16 @@ impl Problem {
                 ));
             }
             let function = Function::compile(&[c.g.clone()], &args).map_err(sym(what.clone()))?;
-            let ic =
-                IntervalConstraint { name: c.name.clone(), function, first: c.first, last: c.last };
+            if c.activation.is_some_and(|a| a.is_nan() || a <= 0.0) {
+                return Err(bad(what, "its activation distance must be positive (or none)"));
+            }
+            let ic = IntervalConstraint {
+                name: c.name.clone(),
+                function,
+                first: c.first,
+                last: c.last,
+                activation: c.activation,
+            };
             if ic.reads_controls(n) {
                 return Err(bad(what, "it reads a control; it may read the states only"));
             }

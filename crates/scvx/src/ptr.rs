@@ -163,8 +163,9 @@ pub struct Ocp {
 /// The named layer builds them from [`BetweenNodes`](crate::BetweenNodes) (see its example).
 ///
 /// # Errors
-/// [`Ptr::start`] returns [`PtrError::IntervalConstraint`] if `g` depends on the controls or
-/// the segments are not within the problem's nodes.
+/// [`Ptr::start`] returns [`PtrError::IntervalConstraint`] if `g` depends on the controls,
+/// the segments are not within the problem's nodes or the activation distance is not
+/// positive.
 #[derive(Debug, Clone)]
 pub struct IntervalConstraint {
     /// Name for diagnostics.
@@ -176,6 +177,17 @@ pub struct IntervalConstraint {
     pub first: usize,
     /// One past the last segment (= the last node of the interval); `first < last ≤ N − 1`.
     pub last: usize,
+    /// Activation distance (in `g`'s units), or `None` to keep every row. A segment's rows
+    /// are switched off while all of its peaks lie more than this below the bound
+    /// (`max_o ĝ_o < −activation` at the reference): their coefficients are zeroed, so the
+    /// subproblem drops them and the interior point factors a smaller KKT matrix (see
+    /// [`crate::ipm::InteriorPoint::with_switchable_rows`]). The segment stays watched — by
+    /// the merit, which prices every peak's violation, by the CTCS integral and the nodal
+    /// rows — and its rows come back at the first reference where a peak comes within the
+    /// distance. Choose it above what one step can move `g`: rows far from their bound are
+    /// slack in every subproblem, so dropping them does not change the steps. For
+    /// clearances, a few centimetres (the seed's collision variant: 2 cm, same iterates).
+    pub activation: Option<f64>,
 }
 
 impl IntervalConstraint {
@@ -639,8 +651,11 @@ struct IntervalMeta {
     /// and `NodalEval::fjac` (`nnz` per point).
     val0: usize,
     jac0: usize,
-    /// Offset of its first grid point in `NodalEval::fjac_at`.
+    /// Offset of its first grid point in `NodalEval::fjac_at`, and its number of points.
     pt0: usize,
+    points: usize,
+    /// [`IntervalConstraint::activation`] (∞ for none).
+    activation: f64,
     deps: Vec<Vec<(usize, usize)>>,
 }
 
@@ -666,8 +681,8 @@ struct Element {
 /// Scratch for evaluating the nodal constraints (allocated once per solve).
 #[derive(Debug)]
 struct NodalEval {
-    ws: Vec<armature_symbolic::Workspace>,
-    input: Vec<f64>,
+    /// Per-lane scratch (one lane per rayon worker; see [`for_lanes`]).
+    lanes: Vec<EvalLane>,
     values: Vec<f64>,
     jac: Vec<f64>,
     /// Per buffer (nodal, then interval-bound peaks): its positive violation.
@@ -676,13 +691,28 @@ struct NodalEval {
     peak_vals: Vec<f64>,
     /// Each interval-bound row's `sign·x̂ − bound` at the last `fill_peaks`.
     peak_g: Vec<f64>,
-    /// Interval constraints: a workspace each, their values and (when linearized) Jacobian
-    /// nonzeros at every grid point of their segments (see [`IntervalMeta`]).
-    iws: Vec<armature_symbolic::Workspace>,
+    /// Interval constraints: their values and (when linearized) Jacobian nonzeros at every
+    /// grid point of their segments (see [`IntervalMeta`]).
     fgrid: Vec<f64>,
     fjac: Vec<f64>,
-    /// Per grid point of `fgrid`: its Jacobian is in `fjac` for the current `fill_peaks`.
+    /// Per grid point of `fgrid`: its Jacobian is needed by the current `fill_peaks`.
     fjac_at: Vec<bool>,
+    /// The grid points whose Jacobians `fill_peaks` evaluates (capacity: every point).
+    stencil_points: Vec<usize>,
+    /// Per peak row: the first grid point of its stencil and its weights, at the last
+    /// `fill_peaks`.
+    stencils: Vec<(usize, [f64; 3])>,
+    /// Per interval constraint and segment: its largest peak at the last `fill_peaks`.
+    segment_peak: Vec<f64>,
+}
+
+/// One lane's evaluation scratch: a workspace per nodal and per interval constraint, and the
+/// function input `[x; u]`.
+#[derive(Debug)]
+struct EvalLane {
+    ws: Vec<armature_symbolic::Workspace>,
+    iws: Vec<armature_symbolic::Workspace>,
+    input: Vec<f64>,
 }
 
 /// Where one nodal constraint row sits: its evaluation block and its subproblem row.
@@ -722,6 +752,8 @@ pub struct Ptr {
     intervals: Vec<IntervalMeta>,
     /// Per (constraint, node) evaluation: offset of its values and Jacobian nonzeros.
     g_offsets: Vec<(usize, usize)>,
+    /// The (constraint, node) of each evaluation, in `g_offsets` order.
+    nodal_blocks: Vec<(usize, usize)>,
     g_len: (usize, usize),
     /// Per virtual buffer: its evaluation block and output (`None` for a ball's norm).
     buffers: Vec<(usize, usize, Option<usize>)>,
@@ -790,11 +822,12 @@ impl Ptr {
         let n_peaks = n_peaks + n_fpeaks;
         let n_vars = vb0 + n_buffers + n_peaks;
         // Evaluation buffers of the nodal constraints, per (constraint, node).
-        let mut g_offsets = Vec::new();
+        let (mut g_offsets, mut nodal_blocks) = (Vec::new(), Vec::new());
         let (mut gv, mut gj) = (0, 0);
-        for c in &ocp.nodal {
-            for _ in &c.nodes {
+        for (ci, c) in ocp.nodal.iter().enumerate() {
+            for &k in &c.nodes {
                 g_offsets.push((gv, gj));
+                nodal_blocks.push((ci, k));
                 gv += c.function.n_outputs();
                 gj += c.function.jacobian_pattern().nnz();
             }
@@ -1021,6 +1054,8 @@ impl Ptr {
                 val0,
                 jac0,
                 pt0,
+                points: segs.len() * pts,
+                activation: c.activation.unwrap_or(f64::INFINITY),
                 deps,
             });
             pt0 += segs.len() * pts;
@@ -1148,6 +1183,7 @@ impl Ptr {
             peak_stride,
             intervals,
             g_offsets,
+            nodal_blocks,
             g_len: (gv, gj),
             buffers,
             socs,
@@ -1202,7 +1238,18 @@ impl Ptr {
             cones,
             self.settings.subproblem.interior_point(),
         )?
-        .with_stages(&stages)
+        .with_stages(&stages)?
+        .with_switchable_rows(
+            &self
+                .peaks
+                .iter()
+                .filter(|p| {
+                    let PeakOf::Function { c, .. } = p.of else { return false };
+                    self.intervals[c].activation.is_finite()
+                })
+                .map(|p| p.row)
+                .collect::<Vec<_>>(),
+        )
     }
 
     /// The problem.
@@ -1239,6 +1286,7 @@ impl Ptr {
         // A running solve's reference was linearised with the old value: it must restart.
         if let Some(st) = self.state.as_mut() {
             st.status.get_or_insert(PtrStatus::MaxIterations);
+            st.linearized = false;
         }
         Ok(count)
     }
@@ -1254,22 +1302,28 @@ impl Ptr {
         jac: bool,
     ) -> (f64, f64) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let mut e = 0;
-        for (ci, c) in self.ocp.nodal.iter().enumerate() {
-            let (nout, nnz) = (c.function.n_outputs(), c.function.jacobian_pattern().nnz());
-            for &k in &c.nodes {
-                ev.input[..n].copy_from_slice(&x[k * n..(k + 1) * n]);
-                ev.input[n..n + m].copy_from_slice(&u[k * m..(k + 1) * m]);
+        let blocks = &self.nodal_blocks;
+        let offsets = |e: usize| if e < blocks.len() { self.g_offsets[e] } else { self.g_len };
+        let weight = |e: usize| self.ocp.nodal[blocks[e].0].function.instruction_count();
+        let lanes = self.eval_lanes(&mut ev.lanes);
+        let (values, jacs) = (&mut ev.values[..], &mut ev.jac[..]);
+        for_lanes(lanes, blocks.len(), weight, offsets, values, jacs, |lane, range, vals, jv| {
+            let (v0, j0) = offsets(range.start);
+            for e in range {
+                let (ci, k) = blocks[e];
+                let f = &self.ocp.nodal[ci].function;
+                let (nout, nnz) = (f.n_outputs(), f.jacobian_pattern().nnz());
+                lane.input[..n].copy_from_slice(&x[k * n..(k + 1) * n]);
+                lane.input[n..n + m].copy_from_slice(&u[k * m..(k + 1) * m]);
                 let (vo, jo) = self.g_offsets[e];
-                let vals = &mut ev.values[vo..vo + nout];
-                let jac = jac.then(|| &mut ev.jac[jo..jo + nnz]);
+                let out = &mut vals[vo - v0..vo - v0 + nout];
+                let jac = jac.then(|| &mut jv[jo - j0..jo - j0 + nnz]);
                 // Compiled against the dynamics' groups: evaluation cannot fail on sizes.
-                if c.function.eval(&ev.input[..n + m], &mut ev.ws[ci], vals, jac).is_err() {
-                    vals.fill(f64::INFINITY);
+                if f.eval(&lane.input[..n + m], &mut lane.ws[ci], out, jac).is_err() {
+                    out.fill(f64::INFINITY);
                 }
-                e += 1;
             }
-        }
+        });
         let (mut sum, mut max) = (0.0, 0.0f64);
         for (i, &(eval, ci, out)) in self.buffers.iter().enumerate() {
             let c = &self.ocp.nodal[ci];
@@ -1293,14 +1347,23 @@ impl Ptr {
     /// `ev.peak_vals`: `sign·Σ w_i ∂x_r(t_i)/∂z` over the peak's stencil; their values
     /// `sign·x̂ − bound` into `ev.peak_g`.
     fn fill_peaks(&self, d: &Discretization, ev: &mut NodalEval) {
-        let stride = self.ocp.dynamics.grid_stride();
+        let (stride, pts) = (self.ocp.dynamics.grid_stride(), d.grid_points);
         self.eval_interval(d, ev);
-        // Jacobians only at the stencils' grid points, once each.
-        ev.fjac_at.fill(false);
+        // Each peak, and each interval constraint's largest peak per segment (its activation).
+        ev.segment_peak.fill(f64::NEG_INFINITY);
         for (i, p) in self.peaks.iter().enumerate() {
             let (g, first, w) = self.peak(d, ev, p);
-            ev.peak_g[i] = g;
-            let base = (p.seg * d.grid_points + first) * stride;
+            (ev.peak_g[i], ev.stencils[i]) = (g, (first, w));
+            if let PeakOf::Function { c, .. } = p.of {
+                let k = self.intervals[c].pt0 / pts + p.seg - self.intervals[c].first;
+                ev.segment_peak[k] = ev.segment_peak[k].max(g);
+            }
+        }
+        // Jacobians only at the active rows' stencil points, once each.
+        self.stencil_jacobians(d, ev);
+        for (i, p) in self.peaks.iter().enumerate() {
+            let (first, w) = ev.stencils[i];
+            let base = (p.seg * pts + first) * stride;
             match p.of {
                 PeakOf::State(_) => {
                     for q in p.src.clone() {
@@ -1313,13 +1376,14 @@ impl Ptr {
                     }
                 }
                 PeakOf::Function { c, out } => {
-                    // Σ_i w_i Σ_r ∂g_o/∂x_r(t_i) · ∂x_r(t_i)/∂z_col.
+                    // Σ_i w_i Σ_r ∂g_o/∂x_r(t_i) · ∂x_r(t_i)/∂z_col; zero when switched off.
                     let meta = &self.intervals[c];
-                    let pts = d.grid_points;
                     ev.peak_vals[p.src.clone()].fill(0.0);
+                    if !self.row_active(ev, p) {
+                        continue;
+                    }
                     for (i, &wi) in w.iter().enumerate().filter(|(_, w)| **w != 0.0) {
                         let point = (p.seg - meta.first) * pts + first + i;
-                        self.interval_jacobian(d, ev, c, point);
                         let jac = &ev.fjac[meta.jac0 + point * meta.nnz..][..meta.nnz];
                         let block = base + i * stride;
                         for q in p.src.clone() {
@@ -1336,49 +1400,132 @@ impl Ptr {
         }
     }
 
+    /// Whether interval-constraint peak row `p` is in the subproblem at the last
+    /// `fill_peaks`: its constraint's largest peak on its segment lies within the
+    /// constraint's activation distance of the bound ([`IntervalConstraint::activation`]).
+    fn row_active(&self, ev: &NodalEval, p: &PeakRow) -> bool {
+        let PeakOf::Function { c, .. } = p.of else { return true };
+        let meta = &self.intervals[c];
+        let pts = self.settings.discretization.substeps + 1;
+        ev.segment_peak[meta.pt0 / pts + p.seg - meta.first] > -meta.activation
+    }
+
     /// The interval constraints' values at every grid point of their segments of `d`, into
     /// `ev.fgrid`.
     fn eval_interval(&self, d: &Discretization, ev: &mut NodalEval) {
-        for (c, meta) in self.intervals.iter().enumerate() {
-            for point in 0..(meta.last - meta.first) * d.grid_points {
-                self.interval_point(d, ev, c, point, false);
+        let points = ev.fjac_at.len();
+        let lanes = self.eval_lanes(&mut ev.lanes);
+        let (grid, jacs) = (&mut ev.fgrid[..], &mut ev.fjac[..]);
+        let offsets = |gp: usize| self.grid_offsets(gp);
+        for_lanes(
+            lanes,
+            points,
+            |_| 1,
+            offsets,
+            grid,
+            jacs,
+            |lane, range, vals, _| {
+                let v0 = offsets(range.start).0;
+                for gp in range {
+                    self.interval_point(d, lane, gp, &mut vals[offsets(gp).0 - v0..], None);
+                }
+            },
+        );
+    }
+
+    /// The interval constraints' Jacobians at the grid points of the active peak rows'
+    /// stencils (`ev.stencils`, at `d`), each point once, into `ev.fjac`; `ev.fjac_at` marks
+    /// them.
+    fn stencil_jacobians(&self, d: &Discretization, ev: &mut NodalEval) {
+        let pts = d.grid_points;
+        ev.fjac_at.fill(false);
+        for (p, &(first, w)) in self.peaks.iter().zip(&ev.stencils) {
+            if let PeakOf::Function { c, .. } = p.of {
+                if !self.row_active(ev, p) {
+                    continue;
+                }
+                let meta = &self.intervals[c];
+                for (i, _) in w.iter().enumerate().filter(|(_, w)| **w != 0.0) {
+                    ev.fjac_at[meta.pt0 + (p.seg - meta.first) * pts + first + i] = true;
+                }
             }
         }
+        ev.stencil_points.clear();
+        let marked = ev.fjac_at.iter().enumerate().filter(|(_, at)| **at);
+        ev.stencil_points.extend(marked.map(|(gp, _)| gp));
+        let points = &ev.stencil_points;
+        let lanes = self.eval_lanes(&mut ev.lanes);
+        let (grid, jacs) = (&mut ev.fgrid[..], &mut ev.fjac[..]);
+        let offsets = |i: usize| self.grid_offsets(points.get(i).copied().unwrap_or(usize::MAX));
+        for_lanes(
+            lanes,
+            points.len(),
+            |_| 1,
+            offsets,
+            grid,
+            jacs,
+            |lane, range, vals, jv| {
+                let (v0, j0) = offsets(range.start);
+                for &gp in &points[range] {
+                    let (vo, jo) = self.grid_offsets(gp);
+                    self.interval_point(
+                        d,
+                        lane,
+                        gp,
+                        &mut vals[vo - v0..],
+                        Some(&mut jv[jo - j0..]),
+                    );
+                }
+            },
+        );
     }
 
-    /// Interval constraint `c`'s Jacobian at its grid point `point` (segment-major from its
-    /// first segment) into `ev.fjac`, unless `ev.fjac_at` says it is there.
-    fn interval_jacobian(&self, d: &Discretization, ev: &mut NodalEval, c: usize, point: usize) {
-        let meta = &self.intervals[c];
-        let at = meta.pt0 + point;
-        if !std::mem::replace(&mut ev.fjac_at[at], true) {
-            self.interval_point(d, ev, c, point, true);
+    /// Offsets in `NodalEval::fgrid` and `NodalEval::fjac` of grid point `gp` (numbered
+    /// across the interval constraints, as `fjac_at`); past the last point, the buffers'
+    /// lengths.
+    fn grid_offsets(&self, gp: usize) -> (usize, usize) {
+        let mut end = (0, 0);
+        for meta in &self.intervals {
+            if gp < meta.pt0 + meta.points {
+                let i = gp - meta.pt0;
+                return (meta.val0 + i * meta.nout, meta.jac0 + i * meta.nnz);
+            }
+            end = (meta.val0 + meta.points * meta.nout, meta.jac0 + meta.points * meta.nnz);
         }
+        end
     }
 
-    /// Interval constraint `c` at its grid point `point`: values into `ev.fgrid`, with `jac`
-    /// the Jacobian into `ev.fjac`.
+    /// Grid point `gp`'s interval constraint at `d` with `lane`'s scratch: its values into
+    /// `vals` (from the start) and, with `jac`, its Jacobian nonzeros into `jac`.
     fn interval_point(
         &self,
         d: &Discretization,
-        ev: &mut NodalEval,
-        c: usize,
-        point: usize,
-        jac: bool,
+        lane: &mut EvalLane,
+        gp: usize,
+        vals: &mut [f64],
+        jac: Option<&mut [f64]>,
     ) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let (stride, pts, meta) =
-            (self.ocp.dynamics.grid_stride(), d.grid_points, &self.intervals[c]);
+        let (stride, pts) = (self.ocp.dynamics.grid_stride(), d.grid_points);
+        let c = self.intervals.iter().rposition(|meta| meta.pt0 <= gp).expect("a grid point");
+        let (meta, point) = (&self.intervals[c], gp - self.intervals[c].pt0);
         let base = ((meta.first + point / pts) * pts + point % pts) * stride;
         // The controls are not read (checked in `start`).
-        ev.input[..n].copy_from_slice(&d.grid[base..base + n]);
-        ev.input[n..n + m].fill(0.0);
-        let vals = &mut ev.fgrid[meta.val0 + point * meta.nout..][..meta.nout];
-        let jv = jac.then(|| &mut ev.fjac[meta.jac0 + point * meta.nnz..][..meta.nnz]);
+        lane.input[..n].copy_from_slice(&d.grid[base..base + n]);
+        lane.input[n..n + m].fill(0.0);
+        let vals = &mut vals[..meta.nout];
+        let jac = jac.map(|j| &mut j[..meta.nnz]);
         let f = &self.ocp.interval_constraints[c].function;
-        if f.eval(&ev.input[..n + m], &mut ev.iws[c], vals, jv).is_err() {
+        if f.eval(&lane.input[..n + m], &mut lane.iws[c], vals, jac).is_err() {
             vals.fill(f64::INFINITY);
         }
+    }
+
+    /// The evaluation lanes to use: all of them when the settings ask for parallel work, else
+    /// the first.
+    fn eval_lanes<'a>(&self, lanes: &'a mut [EvalLane]) -> &'a mut [EvalLane] {
+        let count = if self.settings.discretization.parallel { lanes.len() } else { 1 };
+        &mut lanes[..count.max(1)]
     }
 
     /// The peak of an interval row on `d`'s grid (interval constraints: their values in
@@ -1530,6 +1677,9 @@ impl Ptr {
                     "it reads the controls; an interval constraint may read the states only",
                 );
             }
+            if c.activation.is_some_and(|a| a.is_nan() || a <= 0.0) {
+                return bad("its activation distance must be positive (or None)");
+            }
         }
         for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
             if v.len() != len {
@@ -1567,6 +1717,7 @@ impl Ptr {
         }
         st.hess_ready.fill(false);
         st.scale_objective = false;
+        st.linearized = false;
         st.history.clear();
         st.history.reserve(self.settings.max_iterations);
         st.status = None;
@@ -1746,14 +1897,23 @@ impl Ptr {
             dbar: self.output(),
             dcand: self.output(),
             ev: NodalEval {
-                ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
-                input: vec![0.0; n + m],
+                lanes: (0..rayon::current_num_threads().max(1))
+                    .map(|_| EvalLane {
+                        ws: self.ocp.nodal.iter().map(|c| c.function.workspace()).collect(),
+                        iws: self
+                            .ocp
+                            .interval_constraints
+                            .iter()
+                            .map(|c| c.function.workspace())
+                            .collect(),
+                        input: vec![0.0; n + m],
+                    })
+                    .collect(),
                 values: vec![0.0; self.g_len.0],
                 jac: vec![0.0; self.g_len.1],
                 violation: vec![0.0; self.buffers.len() + self.peaks.len()],
                 peak_vals: vec![0.0; self.peak_src.len()],
                 peak_g: vec![0.0; self.peaks.len()],
-                iws: self.ocp.interval_constraints.iter().map(|c| c.function.workspace()).collect(),
                 fgrid: vec![
                     0.0;
                     self.intervals.iter().map(|m| (m.last - m.first) * pts * m.nout).sum()
@@ -1763,6 +1923,11 @@ impl Ptr {
                     self.intervals.iter().map(|m| (m.last - m.first) * pts * m.nnz).sum()
                 ],
                 fjac_at: vec![false; self.intervals.iter().map(|m| (m.last - m.first) * pts).sum()],
+                stencil_points: Vec::with_capacity(
+                    self.intervals.iter().map(|m| (m.last - m.first) * pts).sum(),
+                ),
+                stencils: vec![(0, [0.0; 3]); self.peaks.len()],
+                segment_peak: vec![0.0; self.intervals.iter().map(|m| m.last - m.first).sum()],
             },
             lam_vc: vec![0.0; n],
             lam_vb: vec![0.0; self.buffers.len() + self.peaks.len()],
@@ -1796,19 +1961,16 @@ impl Ptr {
             p_scaled: vec![0.0; self.p_rowval.len()],
             q_scaled: vec![0.0; self.n_vars],
             scale_objective: false,
+            linearized: false,
         }
     }
 
-    fn step_in(&mut self, st: &mut Iterate) -> Result<Iteration, PtrError> {
+    /// The subproblem's constraint values at the reference: `A`'s values (`st.nz`) from the
+    /// discretization, the nodal constraints' Jacobians and the peak rows, and the
+    /// right-hand sides `st.b` in deviation form.
+    fn linearize_constraints(&self, st: &mut Iterate) {
         let (n, nn) = (self.ocp.dynamics.n_x(), self.ocp.nodes);
         let (u0, s0, vp0, _) = self.layout();
-        let nv = self.n_vars;
-        let n_primal = vp0;
-        let dtau = 1.0 / (nn - 1) as f64;
-        let it = st.history.len() + 1;
-        // A copy (plain numbers, no allocation), so `self` stays free for the evaluations.
-        let set = &self.settings.clone();
-        // Values of this linearization.
         self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &st.lam_vb, true);
         self.fill_peaks(&st.dbar, &mut st.ev);
         fill_values(&self.sources, &st.dbar, &st.ev, &st.ev.peak_vals, &mut st.nz);
@@ -1819,7 +1981,7 @@ impl Ptr {
         st.zbar[u0..s0].copy_from_slice(&st.ub);
         st.zbar[s0..vp0].copy_from_slice(&st.sb);
         st.b.copy_from_slice(&self.b);
-        for c in 0..n_primal {
+        for c in 0..vp0 {
             for p in self.a_colptr[c]..self.a_colptr[c + 1] {
                 st.b[self.a_rowval[p]] -= st.nz[p] * st.zbar[c];
             }
@@ -1834,6 +1996,21 @@ impl Ptr {
         }
         for (p, g) in self.peaks.iter().zip(&st.ev.peak_g) {
             st.b[p.row] = -g;
+        }
+        st.linearized = true;
+    }
+
+    fn step_in(&mut self, st: &mut Iterate) -> Result<Iteration, PtrError> {
+        let (n, nn) = (self.ocp.dynamics.n_x(), self.ocp.nodes);
+        let (u0, s0, vp0, _) = self.layout();
+        let nv = self.n_vars;
+        let n_primal = vp0;
+        let dtau = 1.0 / (nn - 1) as f64;
+        let it = st.history.len() + 1;
+        // A copy (plain numbers, no allocation), so `self` stays free for the evaluations.
+        let set = &self.settings.clone();
+        if !st.linearized {
+            self.linearize_constraints(st);
         }
         st.q.fill(0.0);
         for k in 0..nn - 1 {
@@ -2012,6 +2189,7 @@ impl Ptr {
             st.ub.copy_from_slice(&st.zc[u0..s0]);
             st.sb.copy_from_slice(&st.zc[s0..vp0]);
             std::mem::swap(&mut st.dbar, &mut st.dcand);
+            st.linearized = false;
             (st.jbar, st.tf) = (jc, tfc);
             // A short accepted step: the published PTR's criterion. It does not certify
             // stationarity — the subproblem's optimality gives ‖∇L‖ ≈ 2λ_tr‖Δz‖_S, which a
@@ -2301,6 +2479,60 @@ fn damped_bfgs(h: &mut [f64], s: &[f64], y: &[f64], hs: &mut [f64], r: &mut [f64
 type MeritValues = (f64, f64, f64, f64);
 
 /// The constraint matrix's values from their sources at one linearization.
+/// Runs `f(lane, jobs, vals, jacs)` over the jobs `0..count` split into contiguous chunks of
+/// about equal total `weight`, one per lane: the first on the calling thread, the others
+/// spawned on the rayon pool (one small allocation each, as the discretization's lanes).
+/// Job `j`'s outputs start at `offsets(j)` in `vals` and in `jacs`, non-decreasing in `j`
+/// (`offsets(count)`: where the last job's end); each chunk gets the parts of both buffers
+/// from its first job's offsets up to the next chunk's.
+fn for_lanes<F>(
+    lanes: &mut [EvalLane],
+    count: usize,
+    weight: impl Fn(usize) -> usize,
+    offsets: impl Fn(usize) -> (usize, usize),
+    vals: &mut [f64],
+    jacs: &mut [f64],
+    f: F,
+) where
+    F: Fn(&mut EvalLane, std::ops::Range<usize>, &mut [f64], &mut [f64]) + Sync,
+{
+    let (v0, j0) = offsets(0);
+    let (mut vals, mut jacs) = (&mut vals[v0..], &mut jacs[j0..]);
+    let lanes_used = lanes.len().min(count).max(1);
+    if lanes_used == 1 {
+        f(&mut lanes[0], 0..count, vals, jacs);
+        return;
+    }
+    let (mut at, mut start) = ((v0, j0), 0);
+    let total: usize = (0..count).map(&weight).sum();
+    let (mut done, f) = (0, &f);
+    rayon::in_place_scope(|scope| {
+        let mut first = None;
+        for (i, lane) in lanes[..lanes_used].iter_mut().enumerate() {
+            let mut end = start;
+            let target = total * (i + 1) / lanes_used;
+            while end < count && (done < target || i + 1 == lanes_used) {
+                done += weight(end);
+                end += 1;
+            }
+            let next = offsets(end);
+            let (mine_v, rest_v) = std::mem::take(&mut vals).split_at_mut(next.0 - at.0);
+            let (mine_j, rest_j) = std::mem::take(&mut jacs).split_at_mut(next.1 - at.1);
+            (vals, jacs, at) = (rest_v, rest_j, next);
+            let range = start..end;
+            start = end;
+            if i == 0 {
+                first = Some((lane, range, mine_v, mine_j));
+            } else {
+                scope.spawn(move |_| f(lane, range, mine_v, mine_j));
+            }
+        }
+        if let Some((lane, range, v, j)) = first {
+            f(lane, range, v, j);
+        }
+    });
+}
+
 fn fill_values(
     sources: &[Source],
     d: &Discretization,
@@ -2560,6 +2792,9 @@ struct Iterate {
 
     sol_x: Vec<f64>,
     sol_z: Vec<f64>,
+    /// `nz` and `b` hold the linearization of the current reference (false once it moves):
+    /// after a rejected step the next subproblem reuses them.
+    linearized: bool,
 }
 
 impl std::fmt::Debug for Iterate {
@@ -2621,6 +2856,7 @@ mod tests {
                 function: g,
                 first: 0,
                 last: 3,
+                activation: None,
             }],
         };
         let ptr = Ptr::new(ocp, PtrSettings::default());

@@ -30,6 +30,10 @@ fn depth(s: &Solution, centre: [f64; 2]) -> f64 {
 }
 
 fn problem(between_nodes: bool) -> Problem {
+    problem_with(between_nodes, None)
+}
+
+fn problem_with(between_nodes: bool, activation: Option<f64>) -> Problem {
     let p = State::new("p", 2).initial_value(&[0.0, 0.0]).final_value(&[2.0, 0.0]);
     let v = State::new("v", 2)
         .bounds(&[-5.0, -5.0], &[5.0, 5.0])
@@ -41,7 +45,13 @@ fn problem(between_nodes: bool) -> Problem {
         dynamics: vec![v.expr(), a.expr()],
         constraints: vec![ProblemConstraint::from(g.le(0.0).named("outside the disc"))],
         between_nodes: if between_nodes {
-            vec![BetweenNodes { name: "outside the disc".into(), g, first: 0, last: NODES - 1 }]
+            vec![BetweenNodes {
+                name: "outside the disc".into(),
+                g,
+                first: 0,
+                last: NODES - 1,
+                activation,
+            }]
         } else {
             Vec::new()
         },
@@ -122,6 +132,38 @@ fn bad_between_nodes_constraints_are_errors() {
     p.between_nodes[0].g = p.controls[0].expr().sum();
     let e = p.compile(PtrSettings::default()).unwrap_err();
     assert!(e.to_string().contains("states only"), "{e}");
+    // An activation distance that is not positive.
+    for bad in [0.0, -0.1, f64::NAN] {
+        let e = problem_with(true, Some(bad)).compile(PtrSettings::default()).unwrap_err();
+        assert!(e.to_string().contains("activation"), "{e}");
+    }
+}
+
+/// With an activation distance the segments far from the disc (its first and last, about
+/// 0.4 m² below the bound) leave their peak rows out of the subproblem: the interior point
+/// factors a smaller KKT matrix, and the solve converges to the same kind of path, out of the
+/// disc. (The steps can differ: a row switched off at one reference may have bound a later
+/// subproblem's step; here the final times agree to 0.1 %.)
+#[test]
+fn far_segments_switch_their_peak_rows_off() {
+    let solve_with = |activation| {
+        let mut compiled = problem_with(true, activation).compile(PtrSettings::default()).unwrap();
+        let s = compiled.solve().unwrap();
+        let kkt = compiled.ptr().dimensions().reduced_kkt_nonzeros.expect("interior point");
+        (s, kkt)
+    };
+    let (all, kkt_all) = solve_with(None);
+    // g = r² − |p − c|² (m²).
+    let (screened, kkt_screened) = solve_with(Some(0.15));
+    assert_eq!(screened.status, "converged");
+    assert!(depth(&screened, CENTRE) <= 1e-5);
+    assert!(
+        (screened.final_time - all.final_time).abs() < 1e-3 * all.final_time,
+        "{} against {}",
+        screened.final_time,
+        all.final_time
+    );
+    assert!(kkt_screened.1 < kkt_all.1, "factor nonzeros {kkt_screened:?} against {kkt_all:?}");
 }
 
 #[test]
@@ -139,6 +181,7 @@ fn the_solver_checks_interval_constraints_too() {
         function: reads_control,
         first: 0,
         last: NODES - 1,
+        activation: None,
     }];
     let (x, u, s) = compiled.guess();
     let e = Ptr::new(ocp.clone(), PtrSettings::default()).solve(x, u, s).unwrap_err();
@@ -146,6 +189,10 @@ fn the_solver_checks_interval_constraints_too() {
     let states_only = Function::compile(&[states[0].clone()], &args).unwrap();
     ocp.interval_constraints[0].function = states_only;
     ocp.interval_constraints[0].last = NODES;
-    let e = Ptr::new(ocp, PtrSettings::default()).solve(x, u, s).unwrap_err();
+    let e = Ptr::new(ocp.clone(), PtrSettings::default()).solve(x, u, s).unwrap_err();
     assert!(e.to_string().contains("first < last"), "{e}");
+    ocp.interval_constraints[0].last = NODES - 1;
+    ocp.interval_constraints[0].activation = Some(f64::NAN);
+    let e = Ptr::new(ocp, PtrSettings::default()).solve(x, u, s).unwrap_err();
+    assert!(e.to_string().contains("activation"), "{e}");
 }

@@ -224,6 +224,81 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Switchable rows: nonnegative rows whose values a caller zeroes (all but at most one)
+    /// between solves. One solver, declared with all its nonnegative rows switchable, solves
+    /// the problem with some rows off, the original (all on: back to the full pattern), then
+    /// the first again (a cached analysis), each from a cold start: each time the same
+    /// certified solution as a fresh solver that knows nothing of switchable rows.
+    #[test]
+    fn switched_off_rows_give_the_same_solution(
+        pr in problem(),
+        off in prop::collection::vec(prop::option::of(0usize..6), 6),
+    ) {
+        let m0 = pr.cones.zero;
+        let nonneg: Vec<usize> = (m0..m0 + pr.cones.nonneg).collect();
+        // Rows off: all entries zero but, for `Some(c)`, column c's; a loose right-hand side
+        // keeps the problem's interior point x₀ ∈ (−1, 1)ⁿ strictly feasible.
+        let mut switched = pr.clone();
+        for (&r, keep) in nonneg.iter().zip(&off) {
+            if let Some(keep) = keep {
+                for c in 0..pr.n {
+                    if *keep >= pr.n || c != *keep {
+                        switched.a[c * pr.m + r] = 0.0;
+                    }
+                }
+                switched.b[r] = 2.0;
+            }
+        }
+        let (pc, prw, pv) = csc(pr.n, pr.n, &pr.p, true);
+        let (ac, ar, _) = csc(pr.m, pr.n, &pr.a, false);
+        let values = |pr: &Problem| csc(pr.m, pr.n, &pr.a, false).2;
+        let mut switchable =
+            InteriorPoint::new(pr.n, (&pc, &prw), pr.m, (&ac, &ar), pr.cones.clone(), settings(1e-9))
+                .and_then(|ipm| ipm.with_switchable_rows(&nonneg))
+                .unwrap();
+        for case in [&switched, &pr, &switched] {
+            let (fresh, status, _) = solve_both(case, settings(1e-9));
+            prop_assert_eq!(status, IpmStatus::Solved);
+            // Cold, as the fresh solver (a warm start from another problem is not the point).
+            switchable.reset();
+            prop_assert_eq!(switchable.solve(&pv, &case.q, &values(case), &case.b), IpmStatus::Solved);
+            let (primal, dual, gap, inside) = certificate(case, &switchable);
+            let xn = switchable.x().iter().fold(1.0f64, |a, v| a.max(v.abs()));
+            prop_assert!(primal < 1e-8 * xn && dual < 1e-8 * xn, "residuals {primal:e} {dual:e}");
+            prop_assert!(gap.abs() < 1e-6 && inside, "gap {gap:e}, in the cones: {inside}");
+            for (a, b) in switchable.x().iter().zip(fresh.x()) {
+                prop_assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{:?} vs {:?}", switchable.x(), fresh.x());
+            }
+        }
+        // Rows off leave K's pattern smaller (or equal), never larger.
+        prop_assert!(switchable.kkt_nonzeros().0 <= InteriorPoint::new(
+            pr.n, (&pc, &prw), pr.m, (&ac, &ar), pr.cones.clone(), settings(1e-9)
+        ).unwrap().kkt_nonzeros().0);
+    }
+}
+
+/// Declaring a row that is not a nonnegative row switchable is an error.
+#[test]
+fn only_nonnegative_rows_are_switchable() {
+    // One equality row and one nonnegative row on x ∈ ℝ².
+    let ipm = || {
+        InteriorPoint::new(
+            2,
+            (&[0, 1, 2], &[0, 1]),
+            2,
+            (&[0, 2, 4], &[0, 1, 0, 1]),
+            Cones { zero: 1, nonneg: 1, soc: vec![] },
+            IpmSettings::default(),
+        )
+        .unwrap()
+    };
+    assert!(ipm().with_switchable_rows(&[1]).is_ok());
+    assert!(ipm().with_switchable_rows(&[0]).is_err());
+    assert!(ipm().with_switchable_rows(&[2]).is_err());
+}
+
 /// A multistage problem (a discrete double integrator driven to rest from x₀ over N steps,
 /// minimizing the control effort under a box on the controls that binds): with each node's variables
 /// staged, the factor is no larger than in AMD's ordering, and the solution is the same.

@@ -58,6 +58,9 @@ use scaling::{Scaling, push_inside, push_inside_socs, shift_into_cone, step_leng
 /// Largest second-order cone handled (scaling works on fixed-size arrays).
 pub const MAX_SOC: usize = 8;
 
+/// Analyses kept for other sets of dormant rows (see `InteriorPoint::select_kkt`).
+const KKT_CACHE: usize = 4;
+
 /// Settings of [`InteriorPoint`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct IpmSettings {
@@ -211,6 +214,17 @@ pub struct InteriorPoint {
     a_rowval: Vec<usize>,
     rows: Rows,
     kkt: ReducedKkt,
+    /// The rows declared switchable ([`with_switchable_rows`](Self::with_switchable_rows)),
+    /// ascending, and for each whether it is off — at most one nonzero value — in the current
+    /// solve, and in the solves `kkt` was analysed for.
+    wide_rows: Vec<usize>,
+    dormant: Vec<bool>,
+    kkt_dormant: Vec<bool>,
+    /// Analyses for other sets of dormant rows met so far, least recently used first.
+    kkt_cache: Vec<(Vec<bool>, ReducedKkt)>,
+    /// The variables' stages given to [`with_stages`](Self::with_stages), for the orderings
+    /// of later analyses.
+    stages: Option<Vec<Option<usize>>>,
     scaling: Scaling,
     newton: Newton,
     x: Vec<f64>,
@@ -284,7 +298,7 @@ impl InteriorPoint {
             return bad("row index of A out of range");
         }
         let rows = Rows::new(m, a_colptr, a_rowval);
-        let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones)?;
+        let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones, |_| false)?;
         let cone_rows = m - cones.zero;
         Ok(InteriorPoint {
             n,
@@ -296,6 +310,11 @@ impl InteriorPoint {
             a_rowval: a_rowval.to_vec(),
             rows,
             kkt,
+            dormant: Vec::new(),
+            kkt_dormant: Vec::new(),
+            kkt_cache: Vec::with_capacity(KKT_CACHE),
+            wide_rows: Vec::new(),
+            stages: None,
             scaling: Scaling::new(&cones),
             newton: Newton::new(n, m, cone_rows),
             cones,
@@ -353,6 +372,29 @@ impl InteriorPoint {
             return Err(IpmError::Pattern("stages must have one entry per variable"));
         }
         self.kkt.reorder(stages);
+        self.stages = Some(stages.to_vec());
+        Ok(self)
+    }
+
+    /// Declares nonnegative `rows` (indices into A's rows) that the caller may switch off
+    /// between solves by zeroing all but at most one of their values — for PTR, the peak rows
+    /// of segments far from their bound, which then keep only their buffer. An off row only
+    /// adds to K's diagonal, so each solve factors K without the off rows' products: the
+    /// pattern for each set of off rows is analysed once (allocating; the four most recently
+    /// left ones are kept, as is the full pattern's) and reused whenever that set recurs.
+    ///
+    /// # Errors
+    /// [`IpmError::Pattern`] if a row is not a nonnegative row.
+    pub fn with_switchable_rows(mut self, rows: &[usize]) -> Result<InteriorPoint, IpmError> {
+        let nonneg = self.cones.zero..self.cones.zero + self.cones.nonneg;
+        if rows.iter().any(|r| !nonneg.contains(r)) {
+            return Err(IpmError::Pattern("switchable rows must be nonnegative rows"));
+        }
+        self.wide_rows = rows.to_vec();
+        self.wide_rows.sort_unstable();
+        self.wide_rows.dedup();
+        self.dormant = vec![false; self.wide_rows.len()];
+        self.kkt_dormant = vec![false; self.wide_rows.len()];
         Ok(self)
     }
 
@@ -417,6 +459,7 @@ impl InteriorPoint {
         assert_eq!(a.len(), self.rows.nnz(), "A values");
         assert_eq!(b.len(), self.m, "b");
         let (m0, tol) = (self.cones.zero, self.settings.tolerance);
+        self.select_kkt(a);
         self.iterations = 0;
         let mut warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
         self.has_solution = false;
@@ -514,6 +557,54 @@ impl InteriorPoint {
                 self.s[r] += alpha * self.ds[r];
             }
         }
+    }
+
+    /// Makes `kkt` the analysis for this solve's dormant rows (wide nonnegative rows with at
+    /// most one nonzero value in `a`): the current one, a cached one, or — once per set of
+    /// dormant rows, allocating — a new analysis. A caller that zeroes the coefficients of
+    /// rows it knows to be slack (PTR's screened peak rows) then factors a smaller K.
+    fn select_kkt(&mut self, a: &[f64]) {
+        for (d, &r) in self.dormant.iter_mut().zip(&self.wide_rows) {
+            *d = self.rows.row(r).iter().filter(|e| a[e.1] != 0.0).nth(1).is_none();
+        }
+        if self.dormant == self.kkt_dormant {
+            return;
+        }
+        let cached =
+            |d: &[bool], cache: &[(Vec<bool>, ReducedKkt)]| cache.iter().position(|e| e.0 == d);
+        let kkt = match cached(&self.dormant, &self.kkt_cache) {
+            Some(i) => self.kkt_cache.remove(i),
+            None => {
+                let (wide, dormant) = (&self.wide_rows, &self.dormant);
+                let is_dormant = |r: usize| wide.binary_search(&r).is_ok_and(|i| dormant[i]);
+                let p = (&self.p_colptr[..], &self.p_rowval[..]);
+                match ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, is_dormant) {
+                    Ok(mut kkt) => {
+                        if let Some(stages) = &self.stages {
+                            kkt.reorder(stages);
+                        }
+                        (self.dormant.clone(), kkt)
+                    }
+                    // A subset of a pattern that was analysed cannot fail; were it to, the
+                    // full pattern's analysis (current or kept in the cache) serves any values.
+                    Err(_) => {
+                        self.dormant.fill(false);
+                        match cached(&self.dormant, &self.kkt_cache) {
+                            Some(i) => self.kkt_cache.remove(i),
+                            None => return,
+                        }
+                    }
+                }
+            }
+        };
+        if self.kkt_cache.len() == KKT_CACHE {
+            // Never evict the full pattern's analysis (no dormant rows): it serves any values.
+            let i = self.kkt_cache.iter().position(|(d, _)| d.iter().any(|&x| x)).unwrap_or(0);
+            self.kkt_cache.remove(i);
+        }
+        let old_dormant = std::mem::replace(&mut self.kkt_dormant, kkt.0);
+        let old = std::mem::replace(&mut self.kkt, kkt.1);
+        self.kkt_cache.push((old_dormant, old));
     }
 
     /// Warm start: x = 0 (PTR's deviation form), the previous duals and s = b, each pushed

@@ -22,25 +22,60 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-/// The two staged candidate orderings (`perm[new] = old`) of the symmetric pattern whose
-/// upper triangle is `(colptr, rowval)`, given the stage of some of its first
-/// `stages.len()` columns: backward sweeps, with unstaged nodes taking the least or the
-/// greatest stage of their neighbours.
+/// The staged candidate orderings (`perm[new] = old`) of the symmetric pattern whose upper
+/// triangle is `(colptr, rowval)`, given the stage of some of its first `stages.len()`
+/// columns: backward sweeps, with unstaged nodes taking the least or the greatest stage of
+/// their neighbours — and, when only some consecutive stages are coupled directly (see
+/// [`Assign::Mixed`]), the greatest where they are and the least elsewhere.
 pub(super) fn staged_orderings(
     colptr: &[usize],
     rowval: &[usize],
     stages: &[Option<usize>],
 ) -> Vec<Vec<usize>> {
     let adj = adjacency(colptr, rowval);
-    let sweep = |greatest: bool| {
+    let coupled = coupled_stages(&adj, stages);
+    let sweep = |assign: Assign| {
         let key: Vec<i64> =
-            propagate(&adj, stages, greatest).iter().map(|&s| -(s as i64)).collect();
+            propagate(&adj, stages, assign, &coupled).iter().map(|&s| -(s as i64)).collect();
         staged_minimum_degree(&adj, &key)
     };
-    // The two sweeps are independent: one per core (on a 2-core machine this halves the
-    // analysis's ordering time).
-    let (least, greatest) = rayon::join(|| sweep(false), || sweep(true));
-    vec![least, greatest]
+    let mixed = coupled.contains(&true) && coupled.contains(&false);
+    // The sweeps are independent: on two cores (this machine's) the analysis's ordering time
+    // is that of the slower half.
+    let ((least, mixed), greatest) = rayon::join(
+        || (sweep(Assign::Least), mixed.then(|| sweep(Assign::Mixed))),
+        || sweep(Assign::Greatest),
+    );
+    let mut out = vec![least, greatest];
+    out.extend(mixed);
+    out
+}
+
+/// Which stage an unstaged node takes among those of its staged neighbours (least `lo`,
+/// greatest `hi`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Assign {
+    /// `lo`.
+    Least,
+    /// `hi`.
+    Greatest,
+    /// `hi` if stages `lo` and `lo + 1` are coupled directly — more edges between their
+    /// staged columns than stage `lo` has columns, as when a row over a segment's states
+    /// and both its controls (a peak row) was folded into K — else `lo`.
+    Mixed,
+}
+
+/// Per stage k: whether stages k and k + 1 are coupled directly (see [`Assign::Mixed`]).
+fn coupled_stages(adj: &[Vec<usize>], stages: &[Option<usize>]) -> Vec<bool> {
+    let count = stages.iter().flatten().max().map_or(0, |&s| s + 1);
+    let (mut columns, mut edges) = (vec![0usize; count], vec![0usize; count]);
+    for (v, s) in stages.iter().enumerate() {
+        let Some(s) = *s else { continue };
+        columns[s] += 1;
+        edges[s] +=
+            adj[v].iter().filter(|&&w| stages.get(w).copied().flatten() == Some(s + 1)).count();
+    }
+    edges.iter().zip(&columns).map(|(e, c)| e > c).collect()
 }
 
 /// Arithmetic of an up-looking LDLᵀ factorization with these column counts of L (strictly
@@ -69,16 +104,27 @@ fn adjacency(colptr: &[usize], rowval: &[usize]) -> Vec<Vec<usize>> {
 }
 
 /// Every node's stage: the given ones, then in rounds each unstaged node with staged
-/// neighbours takes their least (or greatest) stage; nodes never reached take stage 0.
-fn propagate(adj: &[Vec<usize>], given: &[Option<usize>], greatest: bool) -> Vec<usize> {
+/// neighbours takes one of their stages (`assign`); nodes never reached take stage 0.
+fn propagate(
+    adj: &[Vec<usize>],
+    given: &[Option<usize>],
+    assign: Assign,
+    coupled: &[bool],
+) -> Vec<usize> {
     let mut stage: Vec<Option<usize>> =
         (0..adj.len()).map(|v| given.get(v).copied().flatten()).collect();
     loop {
         let next: Vec<Option<usize>> = (0..adj.len())
             .map(|v| {
                 stage[v].or_else(|| {
-                    let known = adj[v].iter().filter_map(|&w| stage[w]);
-                    if greatest { known.max() } else { known.min() }
+                    let known = || adj[v].iter().filter_map(|&w| stage[w]);
+                    let (lo, hi) = (known().min()?, known().max()?);
+                    Some(match assign {
+                        Assign::Least => lo,
+                        Assign::Greatest => hi,
+                        Assign::Mixed if coupled.get(lo) == Some(&true) => hi,
+                        Assign::Mixed => lo,
+                    })
                 })
             })
             .collect();
@@ -186,8 +232,36 @@ mod tests {
         let (cp, rv) = pattern(5, &[(0, 2), (1, 2), (2, 3)]);
         let adj = adjacency(&cp, &rv);
         let given = [Some(2), Some(5)];
-        assert_eq!(propagate(&adj, &given, false), vec![2, 5, 2, 2, 0]);
-        assert_eq!(propagate(&adj, &given, true), vec![2, 5, 5, 5, 0]);
+        let none = [false; 6];
+        assert_eq!(propagate(&adj, &given, Assign::Least, &none), vec![2, 5, 2, 2, 0]);
+        assert_eq!(propagate(&adj, &given, Assign::Greatest, &none), vec![2, 5, 5, 5, 0]);
+        // Mixed: the greatest where the least stage is coupled to the next, else the least.
+        let mut coupled = none;
+        assert_eq!(propagate(&adj, &given, Assign::Mixed, &coupled), vec![2, 5, 2, 2, 0]);
+        coupled[2] = true;
+        assert_eq!(propagate(&adj, &given, Assign::Mixed, &coupled), vec![2, 5, 5, 5, 0]);
+    }
+
+    /// Stages k and k + 1 are coupled when more edges join their staged columns than stage
+    /// k has columns; only then is the mixed sweep offered, and only when some consecutive
+    /// stages are coupled and others are not.
+    #[test]
+    fn coupled_stages_and_the_mixed_sweep() {
+        // Stages 0, 1, 2 of two columns each: 0–2 and 1–3 (stages 0–1) plus 0–3 and 1–2
+        // make four edges between stages 0 and 1 (coupled); one edge 2–4 between stages 1
+        // and 2 (not coupled). Node 6 is an unstaged row joining stages 0 and 1.
+        let edges = [(0, 2), (1, 3), (0, 3), (1, 2), (2, 4), (6, 0), (6, 3), (5, 4)];
+        let (cp, rv) = pattern(7, &edges);
+        let adj = adjacency(&cp, &rv);
+        let stages = [Some(0), Some(0), Some(1), Some(1), Some(2), Some(2)];
+        assert_eq!(coupled_stages(&adj, &stages), vec![true, false, false]);
+        let candidates = staged_orderings(&cp, &rv, &stages);
+        assert_eq!(candidates.len(), 3);
+        assert!(candidates.iter().all(|c| is_permutation(c, 7)));
+        // Without the two cross edges the stages are not coupled: two candidates.
+        let (cp, rv) = pattern(7, &[(0, 2), (1, 3), (2, 4), (6, 0), (6, 3), (5, 4)]);
+        assert_eq!(coupled_stages(&adjacency(&cp, &rv), &stages), vec![false, false, false]);
+        assert_eq!(staged_orderings(&cp, &rv, &stages).len(), 2);
     }
 
     /// Every candidate is a permutation, and the work count is the up-looking one.

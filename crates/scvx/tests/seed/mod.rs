@@ -57,6 +57,10 @@ pub fn orientation_ranges() -> [(f64, Vec<usize>); 2] {
 /// lets the trajectory dip ~0.3 mm below its bound between nodes, so the bound keeps 2 mm.
 pub const CLEARANCE_MARGIN: f64 = 0.002;
 
+/// Activation distance of the clearances' peak rows (m): a segment's rows are in the
+/// subproblem only while some pair there comes within 2 cm of its margin.
+pub const CLEARANCE_ACTIVATION: f64 = 0.02;
+
 /// Name of the parameter holding waypoint `w`'s position.
 pub fn waypoint_parameter(w: usize) -> String {
     format!("waypoint_{w}")
@@ -280,6 +284,7 @@ pub fn build_with(variant: Variant) -> Seed {
                 .unwrap(),
                 first: 0,
                 last: nodes - 1,
+                activation: Some(CLEARANCE_ACTIVATION),
             }]
         } else {
             Vec::new()
