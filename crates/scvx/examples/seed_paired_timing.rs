@@ -5,8 +5,10 @@
 //! (`cargo bench -p armature-scvx --bench seed`) measure the variants one after another, so
 //! their ratios move with the machine's phase; these do not.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_paired_timing [-- ROUNDS]`
-//! (default 15 rounds).
+//! Run: `cargo run --release -p armature-scvx --example seed_paired_timing [-- ROUNDS [VARIANT…]]`
+//! (default 15 rounds, all five variants; name some — `plain`, `collision`,
+//! `collision-without-peak-rows`, `interval-bounds`, `collision-interval-bounds` — to
+//! alternate only those; the ratios are then to the first of them).
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -29,6 +31,15 @@ fn main() {
             Variant { collision: true, interval_bounds: true, ..Variant::default() },
         ),
     ];
+    // Named variants only (`plain`, `collision`, …: a prefix of the name), else all five.
+    let only: Vec<String> = std::env::args().skip(2).collect();
+    let variants: Vec<_> = variants
+        .into_iter()
+        .filter(|(name, _)| {
+            let slug = name.replace(" + ", " ").replace(' ', "-");
+            only.is_empty() || only.contains(&slug)
+        })
+        .collect();
     let seeds: Vec<seed::Seed> = variants.iter().map(|(_, v)| seed::build_with(*v)).collect();
     let mut solvers: Vec<Ptr> =
         seeds.iter().map(|s| Ptr::new(s.ocp.clone(), PtrSettings::default())).collect();
@@ -59,5 +70,5 @@ fn main() {
             medians[i] / medians[0]
         );
     }
-    println!("({rounds} rounds, medians; the ratio of each to the plain solve)");
+    println!("({rounds} rounds, medians; the ratio of each to the first)");
 }

@@ -57,6 +57,16 @@
 //! swung with it. Each row couples a segment's states, controls and dilation, so the
 //! subproblem's KKT factor grows (on the seed, about 27 % more nonzeros, 24 % more work).
 //!
+//! With an activation distance ([`IntervalConstraint::activation`]) a segment's rows sit out
+//! of the subproblem while all its peaks lie further than that below the bound: their
+//! coefficients are zeroed, and the interior point, told which rows may be switched off,
+//! factors K without them (one analysis per set of switched-off rows, cached). Rows that far
+//! from their bound are slack, so the steps are nearly always the same; the merit still
+//! prices every peak, and the CTCS integral and the nodal rows still hold the segment. On
+//! the seed's collision variant (2 cm), only the segments where the arm passes the ball keep
+//! their rows — one at the end — and the solve does 12 % fewer instructions on the same
+//! iterates.
+//!
 //! # Acceptance
 //! By default ([`TrustRegionUpdate::Adaptive`]) the merit
 //! `J(z) = w_t·t_f(z) + Σ λ_vc,i·|defect_i(z)| + Σ λ_vb·max(0, violation)` and the

@@ -37,6 +37,13 @@
 //! from W⁻¹G: W⁻² itself loses its small eigenvalue to cancellation near the boundary), so a
 //! solve allocates nothing.
 //!
+//! Rows that a caller switches off between solves (all but at most one of their values
+//! zero; declared with [`InteriorPoint::with_switchable_rows`]) only add to K's diagonal, so
+//! each solve factors K without their products: the pattern for each set of switched-off rows
+//! is analysed once and cached. PTR switches off the peak rows of segments far from their
+//! bound; on the seed's collision variant that takes the factor from 202 to 146 thousand
+//! multiply-adds.
+//!
 //! After a first solve, the next one starts warm (see [`IpmSettings::warm_start_margin`]):
 //! consecutive PTR subproblems differ little, and their duals carry over. A warm start that
 //! jams (three steps in a row shorter than 1 % of the way to the boundary) restarts cold.

@@ -9,12 +9,17 @@
 //! links stages k and k + 1 is best eliminated with k or with k + 1 depends on the problem
 //! (k for the plain seed, k + 1 with the collision rows; the other choice costs 7–52 % more
 //! than AMD), so [`staged_orderings`] offers both and the caller keeps the cheapest, AMD
-//! included. Forward sweeps (first stage first) never beat the best of these on the seed's
+//! included. What decides it is whether K couples consecutive stages directly (a peak row
+//! over a segment's states and both its controls, folded into K, does): where only some
+//! segments are coupled so (PTR switches far segments' peak rows off), a third, mixed sweep
+//! takes the greatest stage there and the least elsewhere — on the seed's collision variant
+//! with peak rows on one segment, 146 thousand multiply-adds against 165 (least) and 182
+//! (greatest). Forward sweeps (first stage first) never beat the best of these on the seed's
 //! four variants or the double integrator, and are not offered.
 //!
 //! ```text
-//! stage(v) = the caller's stage of a primal column, else the least (or greatest) stage of
-//!            its graph neighbours, propagated outwards from the staged columns;
+//! stage(v) = the caller's stage of a primal column, else the least (or greatest, or mixed)
+//!            stage of its graph neighbours, propagated outwards from the staged columns;
 //! repeatedly eliminate, among the alive nodes of greatest stage, one of least degree (ties:
 //! lowest index), and join its neighbours into a clique.
 //! ```
