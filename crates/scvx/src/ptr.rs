@@ -664,8 +664,10 @@ struct IntervalMeta {
     /// Offset of its first grid point in `NodalEval::fjac_at`, and its number of points.
     pt0: usize,
     points: usize,
-    /// [`IntervalConstraint::activation`] (∞ for none).
+    /// [`IntervalConstraint::activation`] (∞ for none), and the index of its first segment in
+    /// `NodalEval::segment_peak`.
     activation: f64,
+    seg0: usize,
     deps: Vec<Vec<(usize, usize)>>,
 }
 
@@ -1066,6 +1068,7 @@ impl Ptr {
                 pt0,
                 points: segs.len() * pts,
                 activation: c.activation.unwrap_or(f64::INFINITY),
+                seg0: pt0 / pts,
                 deps,
             });
             pt0 += segs.len() * pts;
@@ -1365,7 +1368,7 @@ impl Ptr {
             let (g, first, w) = self.peak(d, ev, p);
             (ev.peak_g[i], ev.stencils[i]) = (g, (first, w));
             if let PeakOf::Function { c, .. } = p.of {
-                let k = self.intervals[c].pt0 / pts + p.seg - self.intervals[c].first;
+                let k = self.intervals[c].seg0 + p.seg - self.intervals[c].first;
                 ev.segment_peak[k] = ev.segment_peak[k].max(g);
             }
         }
@@ -1416,8 +1419,7 @@ impl Ptr {
     fn row_active(&self, ev: &NodalEval, p: &PeakRow) -> bool {
         let PeakOf::Function { c, .. } = p.of else { return true };
         let meta = &self.intervals[c];
-        let pts = self.settings.discretization.substeps + 1;
-        ev.segment_peak[meta.pt0 / pts + p.seg - meta.first] > -meta.activation
+        ev.segment_peak[meta.seg0 + p.seg - meta.first] > -meta.activation
     }
 
     /// The interval constraints' values at every grid point of their segments of `d`, into
@@ -1517,7 +1519,8 @@ impl Ptr {
     ) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
         let (stride, pts) = (self.ocp.dynamics.grid_stride(), d.grid_points);
-        let c = self.intervals.iter().rposition(|meta| meta.pt0 <= gp).expect("a grid point");
+        // The first constraint's points start at 0, so some constraint holds `gp`.
+        let c = self.intervals.iter().rposition(|meta| meta.pt0 <= gp).unwrap_or(0);
         let (meta, point) = (&self.intervals[c], gp - self.intervals[c].pt0);
         let base = ((meta.first + point / pts) * pts + point % pts) * stride;
         // The controls are not read (checked in `start`).

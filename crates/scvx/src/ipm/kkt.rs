@@ -59,16 +59,15 @@ pub(super) struct ReducedKkt {
 
 impl ReducedKkt {
     /// The pattern of K for P's pattern (upper triangle) and A's rows, factored in AMD's
-    /// ordering. A nonnegative row `r` (numbered from the first row of A) for which
-    /// `dormant(r)` holds has at most one nonzero value in the solves this analysis serves:
-    /// it only adds to K's diagonal, so its products off the diagonal are left out of the
-    /// pattern.
+    /// ordering. A nonnegative row `r` (numbered from the first row of A) for which `off(r)`
+    /// holds has at most one nonzero value in the solves this analysis serves: it only adds
+    /// to K's diagonal, so its products off the diagonal are left out of the pattern.
     pub(super) fn analyse(
         n: usize,
         (p_colptr, p_rowval): (&[usize], &[usize]),
         rows: &Rows,
         cones: &Cones,
-        dormant: impl Fn(usize) -> bool,
+        off: impl Fn(usize) -> bool,
     ) -> Result<ReducedKkt, IpmError> {
         let m0 = cones.zero;
         let dim = n + m0;
@@ -87,7 +86,7 @@ impl ReducedKkt {
         // Nonnegative rows: every pair of a row's entries.
         let mut raw_terms = Vec::new();
         for r in m0..m0 + cones.nonneg {
-            let diagonal_only = dormant(r);
+            let diagonal_only = off(r);
             for &(ca, pa) in rows.row(r) {
                 for &(cb, pb) in rows.row(r) {
                     if (ca < cb && !diagonal_only) || pa == pb {

@@ -65,7 +65,7 @@ use scaling::{Scaling, push_inside, push_inside_socs, shift_into_cone, step_leng
 /// Largest second-order cone handled (scaling works on fixed-size arrays).
 pub const MAX_SOC: usize = 8;
 
-/// Analyses kept for other sets of dormant rows (see `InteriorPoint::select_kkt`).
+/// Analyses kept for other sets of switched-off rows (see `InteriorPoint::select_kkt`).
 const KKT_CACHE: usize = 4;
 
 /// Settings of [`InteriorPoint`].
@@ -224,10 +224,10 @@ pub struct InteriorPoint {
     /// The rows declared switchable ([`with_switchable_rows`](Self::with_switchable_rows)),
     /// ascending, and for each whether it is off — at most one nonzero value — in the current
     /// solve, and in the solves `kkt` was analysed for.
-    wide_rows: Vec<usize>,
-    dormant: Vec<bool>,
-    kkt_dormant: Vec<bool>,
-    /// Analyses for other sets of dormant rows met so far, least recently used first.
+    switchable: Vec<usize>,
+    off: Vec<bool>,
+    kkt_off: Vec<bool>,
+    /// Analyses for other sets of switched-off rows met so far, least recently used first.
     kkt_cache: Vec<(Vec<bool>, ReducedKkt)>,
     /// The variables' stages given to [`with_stages`](Self::with_stages), for the orderings
     /// of later analyses.
@@ -317,10 +317,10 @@ impl InteriorPoint {
             a_rowval: a_rowval.to_vec(),
             rows,
             kkt,
-            dormant: Vec::new(),
-            kkt_dormant: Vec::new(),
+            off: Vec::new(),
+            kkt_off: Vec::new(),
             kkt_cache: Vec::with_capacity(KKT_CACHE),
-            wide_rows: Vec::new(),
+            switchable: Vec::new(),
             stages: None,
             scaling: Scaling::new(&cones),
             newton: Newton::new(n, m, cone_rows),
@@ -397,11 +397,11 @@ impl InteriorPoint {
         if rows.iter().any(|r| !nonneg.contains(r)) {
             return Err(IpmError::Pattern("switchable rows must be nonnegative rows"));
         }
-        self.wide_rows = rows.to_vec();
-        self.wide_rows.sort_unstable();
-        self.wide_rows.dedup();
-        self.dormant = vec![false; self.wide_rows.len()];
-        self.kkt_dormant = vec![false; self.wide_rows.len()];
+        self.switchable = rows.to_vec();
+        self.switchable.sort_unstable();
+        self.switchable.dedup();
+        self.off = vec![false; self.switchable.len()];
+        self.kkt_off = vec![false; self.switchable.len()];
         Ok(self)
     }
 
@@ -566,37 +566,37 @@ impl InteriorPoint {
         }
     }
 
-    /// Makes `kkt` the analysis for this solve's dormant rows (wide nonnegative rows with at
+    /// Makes `kkt` the analysis for this solve's switched-off rows (switchable rows with at
     /// most one nonzero value in `a`): the current one, a cached one, or — once per set of
-    /// dormant rows, allocating — a new analysis. A caller that zeroes the coefficients of
-    /// rows it knows to be slack (PTR's screened peak rows) then factors a smaller K.
+    /// switched-off rows, allocating — a new analysis. A caller that zeroes the coefficients
+    /// of rows it knows to be slack (PTR's far peak rows) then factors a smaller K.
     fn select_kkt(&mut self, a: &[f64]) {
-        for (d, &r) in self.dormant.iter_mut().zip(&self.wide_rows) {
+        for (d, &r) in self.off.iter_mut().zip(&self.switchable) {
             *d = self.rows.row(r).iter().filter(|e| a[e.1] != 0.0).nth(1).is_none();
         }
-        if self.dormant == self.kkt_dormant {
+        if self.off == self.kkt_off {
             return;
         }
         let cached =
             |d: &[bool], cache: &[(Vec<bool>, ReducedKkt)]| cache.iter().position(|e| e.0 == d);
-        let kkt = match cached(&self.dormant, &self.kkt_cache) {
+        let kkt = match cached(&self.off, &self.kkt_cache) {
             Some(i) => self.kkt_cache.remove(i),
             None => {
-                let (wide, dormant) = (&self.wide_rows, &self.dormant);
-                let is_dormant = |r: usize| wide.binary_search(&r).is_ok_and(|i| dormant[i]);
+                let (switchable, off) = (&self.switchable, &self.off);
+                let is_off = |r: usize| switchable.binary_search(&r).is_ok_and(|i| off[i]);
                 let p = (&self.p_colptr[..], &self.p_rowval[..]);
-                match ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, is_dormant) {
+                match ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, is_off) {
                     Ok(mut kkt) => {
                         if let Some(stages) = &self.stages {
                             kkt.reorder(stages);
                         }
-                        (self.dormant.clone(), kkt)
+                        (self.off.clone(), kkt)
                     }
                     // A subset of a pattern that was analysed cannot fail; were it to, the
                     // full pattern's analysis (current or kept in the cache) serves any values.
                     Err(_) => {
-                        self.dormant.fill(false);
-                        match cached(&self.dormant, &self.kkt_cache) {
+                        self.off.fill(false);
+                        match cached(&self.off, &self.kkt_cache) {
                             Some(i) => self.kkt_cache.remove(i),
                             None => return,
                         }
@@ -605,13 +605,13 @@ impl InteriorPoint {
             }
         };
         if self.kkt_cache.len() == KKT_CACHE {
-            // Never evict the full pattern's analysis (no dormant rows): it serves any values.
+            // Never evict the full pattern's analysis (no row off): it serves any values.
             let i = self.kkt_cache.iter().position(|(d, _)| d.iter().any(|&x| x)).unwrap_or(0);
             self.kkt_cache.remove(i);
         }
-        let old_dormant = std::mem::replace(&mut self.kkt_dormant, kkt.0);
+        let old_off = std::mem::replace(&mut self.kkt_off, kkt.0);
         let old = std::mem::replace(&mut self.kkt, kkt.1);
-        self.kkt_cache.push((old_dormant, old));
+        self.kkt_cache.push((old_off, old));
     }
 
     /// Warm start: x = 0 (PTR's deviation form), the previous duals and s = b, each pushed
