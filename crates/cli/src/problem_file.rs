@@ -480,6 +480,8 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         }
         if c.between_nodes {
             between_nodes.push(between(src, c, &k, nodes, (&states, &controls))?);
+        } else if c.activation.is_some() {
+            return Err(src.error(&c.expr, "activation applies only with between_nodes = true"));
         }
         constraints.push(ProblemConstraint { constraint: k, ctcs });
     }

@@ -142,6 +142,13 @@ fn expression_errors_point_at_their_character_in_the_file() {
         "activation -0.1 must be > 0",
     );
     bad(
+        "activation-alone",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"abs(v) <= v_max\"\nactivation = 0.1",
+        &format!("{l}:8"),
+        "activation applies only with between_nodes = true",
+    );
+    bad(
         "between-nodes-equality",
         "expr = \"abs(v) <= v_max\"",
         "expr = \"v == v_max\"\nbetween_nodes = true",
