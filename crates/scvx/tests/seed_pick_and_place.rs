@@ -199,6 +199,34 @@ fn seed_collision_variant_converges_without_penetration() {
     assert!(seed::check(&plain, &rp).min_clearance.0 < 0.0);
 }
 
+/// The clearances' peak rows of segments where every pair keeps more than 2 cm beyond its
+/// margin sit out of the subproblem (`IntervalConstraint::activation`): the interior point
+/// factors a smaller KKT matrix and the solve takes the same steps as with every row in.
+#[test]
+fn switching_far_peak_rows_off_keeps_the_collision_iterates() {
+    let s = seed::build_collision();
+    assert_eq!(s.ocp.interval_constraints[0].activation, Some(seed::CLEARANCE_ACTIVATION));
+    let mut all_in = s.ocp.clone();
+    all_in.interval_constraints[0].activation = None;
+    let solve = |ocp: &armature_scvx::Ocp| {
+        let mut ptr = Ptr::new(ocp.clone(), PtrSettings::default());
+        let r = ptr.solve(&s.x, &s.u, &s.s).unwrap();
+        (r, ptr.dimensions().reduced_kkt_nonzeros.expect("interior point"))
+    };
+    let ((screened, kkt_screened), (full, kkt_full)) = (solve(&s.ocp), solve(&all_in));
+    assert_eq!(screened.status, PtrStatus::Converged);
+    assert_eq!(screened.history.len(), full.history.len());
+    assert!((screened.final_time - full.final_time).abs() < 1e-6);
+    for (a, b) in screened.history.iter().zip(&full.history) {
+        assert_eq!(a.accepted, b.accepted, "iteration {}", a.iteration);
+    }
+    // At the end only the segment that passes the ball keeps its rows: L is 19 % smaller.
+    assert!(
+        (kkt_screened.1 as f64) < 0.85 * kkt_full.1 as f64,
+        "{kkt_screened:?} against {kkt_full:?}"
+    );
+}
+
 /// The native interior point stops on the complementarity gap `sᵀz`. With the objectives'
 /// difference as its gap, two subproblems of this collision solve (λ_tr = 0.5, 12 RK4
 /// substeps) ran to its 50-iteration cap and went to Clarabel: `sᵀz` fell below the tolerance
