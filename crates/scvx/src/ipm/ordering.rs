@@ -11,11 +11,12 @@
 //! than AMD), so [`staged_orderings`] offers both and the caller keeps the cheapest, AMD
 //! included. What decides it is whether K couples consecutive stages directly (a peak row
 //! over a segment's states and both its controls, folded into K, does): where only some
-//! segments are coupled so (PTR switches far segments' peak rows off), a third, mixed sweep
-//! takes the greatest stage there and the least elsewhere — on the seed's collision variant
-//! with peak rows on one segment, 146 thousand multiply-adds against 165 (least) and 182
-//! (greatest). Forward sweeps (first stage first) never beat the best of these on the seed's
-//! four variants or the double integrator, and are not offered.
+//! segments are coupled so (PTR switches far segments' peak rows off), a mixed sweep takes
+//! the greatest stage there and the least elsewhere, and is then the only one run — on the
+//! seed's collision variant with peak rows on one segment, 146 thousand multiply-adds
+//! against 165 (least) and 182 (greatest), and a re-analysis reorders in about 4 ms
+//! instead of 5–10. Forward sweeps (first stage first) never beat the best of these on the
+//! seed's four variants or the double integrator, and are not offered.
 //!
 //! ```text
 //! stage(v) = the caller's stage of a primal column, else the least (or greatest, or mixed)
@@ -30,8 +31,9 @@ use std::collections::BinaryHeap;
 /// The staged candidate orderings (`perm[new] = old`) of the symmetric pattern whose upper
 /// triangle is `(colptr, rowval)`, given the stage of some of its first `stages.len()`
 /// columns: backward sweeps, with unstaged nodes taking the least or the greatest stage of
-/// their neighbours — and, when only some consecutive stages are coupled directly (see
-/// [`Assign::Mixed`]), the greatest where they are and the least elsewhere.
+/// their neighbours — or, when only some consecutive stages are coupled directly (see
+/// [`Assign::Mixed`]), the one sweep that takes the greatest where they are and the least
+/// elsewhere.
 pub(super) fn staged_orderings(
     colptr: &[usize],
     rowval: &[usize],
@@ -44,16 +46,19 @@ pub(super) fn staged_orderings(
             propagate(&adj, stages, assign, &coupled).iter().map(|&s| -(s as i64)).collect();
         staged_minimum_degree(&adj, &key)
     };
-    let mixed = coupled.contains(&true) && coupled.contains(&false);
-    // The sweeps are independent: on two cores (this machine's) the analysis's ordering time
-    // is that of the slower half.
-    let ((least, mixed), greatest) = rayon::join(
-        || (sweep(Assign::Least), mixed.then(|| sweep(Assign::Mixed))),
-        || sweep(Assign::Greatest),
-    );
-    let mut out = vec![least, greatest];
-    out.extend(mixed);
-    out
+    // (The last stage has no next one: it is never coupled, and says nothing.)
+    let inner = &coupled[..coupled.len().saturating_sub(1)];
+    if inner.contains(&true) && inner.contains(&false) {
+        // Some segments coupled, others not: each gets the choice that suits it (on the
+        // seed's collision variant 146 thousand multiply-adds against 165 for the least
+        // and 182 for the greatest stage), so the other two sweeps are not run — this is
+        // the analysis PTR repeats when it switches rows off.
+        return vec![sweep(Assign::Mixed)];
+    }
+    // The two sweeps are independent: one per core (on a 2-core machine this halves the
+    // analysis's ordering time).
+    let (least, greatest) = rayon::join(|| sweep(Assign::Least), || sweep(Assign::Greatest));
+    vec![least, greatest]
 }
 
 /// Which stage an unstaged node takes among those of its staged neighbours (least `lo`,
@@ -248,8 +253,8 @@ mod tests {
     }
 
     /// Stages k and k + 1 are coupled when more edges join their staged columns than stage
-    /// k has columns; only then is the mixed sweep offered, and only when some consecutive
-    /// stages are coupled and others are not.
+    /// k has columns; when some consecutive stages are coupled and others are not, the mixed
+    /// sweep is the one offered, else the least and the greatest.
     #[test]
     fn coupled_stages_and_the_mixed_sweep() {
         // Stages 0, 1, 2 of two columns each: 0–2 and 1–3 (stages 0–1) plus 0–3 and 1–2
@@ -261,9 +266,9 @@ mod tests {
         let stages = [Some(0), Some(0), Some(1), Some(1), Some(2), Some(2)];
         assert_eq!(coupled_stages(&adj, &stages), vec![true, false, false]);
         let candidates = staged_orderings(&cp, &rv, &stages);
-        assert_eq!(candidates.len(), 3);
-        assert!(candidates.iter().all(|c| is_permutation(c, 7)));
-        // Without the two cross edges the stages are not coupled: two candidates.
+        assert_eq!(candidates.len(), 1);
+        assert!(is_permutation(&candidates[0], 7));
+        // Without the two cross edges no stages are coupled: the least and the greatest.
         let (cp, rv) = pattern(7, &[(0, 2), (1, 3), (2, 4), (6, 0), (6, 3), (5, 4)]);
         assert_eq!(coupled_stages(&adjacency(&cp, &rv), &stages), vec![false, false, false]);
         assert_eq!(staged_orderings(&cp, &rv, &stages).len(), 2);
