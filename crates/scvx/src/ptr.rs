@@ -1425,24 +1425,8 @@ impl Ptr {
     /// The interval constraints' values at every grid point of their segments of `d`, into
     /// `ev.fgrid`.
     fn eval_interval(&self, d: &Discretization, ev: &mut NodalEval) {
-        let points = ev.fjac_at.len();
-        let lanes = self.eval_lanes(&mut ev.lanes);
-        let (grid, jacs) = (&mut ev.fgrid[..], &mut ev.fjac[..]);
-        let offsets = |gp: usize| self.grid_offsets(gp);
-        for_lanes(
-            lanes,
-            points,
-            |_| 1,
-            offsets,
-            grid,
-            jacs,
-            |lane, range, vals, _| {
-                let v0 = offsets(range.start).0;
-                for gp in range {
-                    self.interval_point(d, lane, gp, &mut vals[offsets(gp).0 - v0..], None);
-                }
-            },
-        );
+        let (lanes, grid, jacs) = (self.eval_lanes(&mut ev.lanes), &mut ev.fgrid, &mut ev.fjac);
+        self.eval_grid(d, lanes, (grid, jacs), ev.fjac_at.len(), |i| i, false);
     }
 
     /// The interval constraints' Jacobians at the grid points of the active peak rows'
@@ -1465,28 +1449,37 @@ impl Ptr {
         ev.stencil_points.clear();
         let marked = ev.fjac_at.iter().enumerate().filter(|(_, at)| **at);
         ev.stencil_points.extend(marked.map(|(gp, _)| gp));
-        let points = &ev.stencil_points;
-        let lanes = self.eval_lanes(&mut ev.lanes);
-        let (grid, jacs) = (&mut ev.fgrid[..], &mut ev.fjac[..]);
-        let offsets = |i: usize| self.grid_offsets(points.get(i).copied().unwrap_or(usize::MAX));
+        let (points, lanes) = (&ev.stencil_points, self.eval_lanes(&mut ev.lanes));
+        let (grid, jacs) = (&mut ev.fgrid, &mut ev.fjac);
+        self.eval_grid(d, lanes, (grid, jacs), points.len(), |i| points[i], true);
+    }
+
+    /// The interval constraints at the grid points `point(0)`, …, `point(count − 1)`
+    /// (ascending, numbered as `fjac_at`) of `d` on the `lanes`: values into `grid` and, with
+    /// `jac`, Jacobian nonzeros into `jacs` (`NodalEval::fgrid` and `fjac`).
+    fn eval_grid(
+        &self,
+        d: &Discretization,
+        lanes: &mut [EvalLane],
+        (grid, jacs): (&mut [f64], &mut [f64]),
+        count: usize,
+        point: impl Fn(usize) -> usize + Sync,
+        jac: bool,
+    ) {
+        let offsets = |i: usize| self.grid_offsets(if i < count { point(i) } else { usize::MAX });
         for_lanes(
             lanes,
-            points.len(),
+            count,
             |_| 1,
             offsets,
             grid,
             jacs,
             |lane, range, vals, jv| {
                 let (v0, j0) = offsets(range.start);
-                for &gp in &points[range] {
-                    let (vo, jo) = self.grid_offsets(gp);
-                    self.interval_point(
-                        d,
-                        lane,
-                        gp,
-                        &mut vals[vo - v0..],
-                        Some(&mut jv[jo - j0..]),
-                    );
+                for i in range {
+                    let (vo, jo) = offsets(i);
+                    let jac = jac.then(|| &mut jv[jo - j0..]);
+                    self.interval_point(d, lane, point(i), &mut vals[vo - v0..], jac);
                 }
             },
         );
