@@ -70,11 +70,12 @@ fn finish(
     rb: f64,
     s: f64,
     t: f64,
-    fallback: Vector3<f64>,
+    fallback: impl FnOnce() -> Vector3<f64>,
 ) -> Closest {
     let d = pa - pb;
     let len = d.norm();
-    let normal = if len > 1e-12 { d / len } else { fallback };
+    // The fallback only where the axes touch: it costs three square roots.
+    let normal = if len > 1e-12 { d / len } else { fallback() };
     Closest {
         distance: len - ra - rb,
         point_a: pa - normal * ra,
@@ -101,7 +102,7 @@ pub fn capsule_capsule(
     );
     let pa = from_glam(Segment::new(to_glam(a0), to_glam(a1)).point_at(&la));
     let pb = from_glam(Segment::new(to_glam(b0), to_glam(b1)).point_at(&lb));
-    finish(pa, pb, ra, rb, param(&la), param(&lb), fallback_normal(&(a1 - a0), &(b1 - b0)))
+    finish(pa, pb, ra, rb, param(&la), param(&lb), || fallback_normal(&(a1 - a0), &(b1 - b0)))
 }
 
 /// Capsule against a sphere (centre `c`, radius `r`): exact closest point on the segment.
@@ -115,7 +116,7 @@ pub fn capsule_sphere(
     let d = a1 - a0;
     let l2 = d.norm_squared();
     let s = if l2 > 0.0 { ((c - a0).dot(&d) / l2).clamp(0.0, 1.0) } else { 0.0 };
-    finish(a0 + d * s, *c, ra, r, s, 0.0, fallback_normal(&d, &Vector3::zeros()))
+    finish(a0 + d * s, *c, ra, r, s, 0.0, || fallback_normal(&d, &Vector3::zeros()))
 }
 
 /// Capsule against the half-space `{x : n·x ≤ offset}` (e.g. below a table at height
