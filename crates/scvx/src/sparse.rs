@@ -69,6 +69,34 @@ impl Rows {
         Rows { ptr, entries }
     }
 
+    /// Rebuilds this view in place for another pattern of `m` rows with at most as many
+    /// entries as the first (no allocation); `fill` is scratch of length `m + 1`.
+    pub(crate) fn rebuild(
+        &mut self,
+        m: usize,
+        (colptr, rowval): (&[usize], &[usize]),
+        fill: &mut [usize],
+    ) {
+        self.ptr.clear();
+        self.ptr.resize(m + 1, 0);
+        for &r in rowval {
+            self.ptr[r + 1] += 1;
+        }
+        for r in 0..m {
+            self.ptr[r + 1] += self.ptr[r];
+        }
+        fill.copy_from_slice(&self.ptr);
+        self.entries.clear();
+        self.entries.resize(rowval.len(), (0, 0));
+        for c in 0..colptr.len() - 1 {
+            for p in colptr[c]..colptr[c + 1] {
+                let r = rowval[p];
+                self.entries[fill[r]] = (c, p);
+                fill[r] += 1;
+            }
+        }
+    }
+
     /// Row r's (column, entry index) pairs.
     pub(crate) fn row(&self, r: usize) -> &[(usize, usize)] {
         &self.entries[self.ptr[r]..self.ptr[r + 1]]
@@ -105,5 +133,13 @@ mod tests {
         assert_eq!(rows.row(1), &[(2, 3)]);
         assert_eq!(rows.row(2), &[(0, 1)]);
         assert_eq!(rows.dot(0, &[1.0, 2.0, 3.0, 4.0], &[10.0, 0.0, 100.0]), 310.0);
+        // Rebuilt in place for a sub-pattern (entry (0, 0) and (1, 2) dropped).
+        let mut again = rows.clone();
+        let mut fill = vec![0; 4];
+        again.rebuild(3, (&[0, 1, 1, 2], &[2, 0]), &mut fill);
+        assert_eq!(again.row(0), &[(2, 1)]);
+        assert!(again.row(1).is_empty());
+        assert_eq!(again.row(2), &[(0, 0)]);
+        assert_eq!(again.nnz(), 2);
     }
 }

@@ -42,7 +42,9 @@
 //! each solve factors K without their products: the pattern for each set of switched-off rows
 //! is analysed once and cached. PTR switches off the peak rows of segments far from their
 //! bound; on the seed's collision variant that takes the factor from 202 to 146 thousand
-//! multiply-adds.
+//! multiply-adds. Each solve also compacts A to the entries whose values are nonzero (those
+//! rows' zeros, an inactive penalty's): the products with A — residuals, right-hand sides,
+//! refinement — skip the rest, while K's assembly keeps the analysed pattern.
 //!
 //! After a first solve, the next one starts warm (see [`IpmSettings::warm_start_margin`]):
 //! consecutive PTR subproblems differ little, and their duals carry over. A warm start that
@@ -220,6 +222,14 @@ pub struct InteriorPoint {
     a_colptr: Vec<usize>,
     a_rowval: Vec<usize>,
     rows: Rows,
+    /// This solve's nonzero entries of A (values, column pointers, row indices, row view):
+    /// the zeros of switched-off rows and of inactive linearized constraints add nothing to
+    /// the products with A, which skip them. The KKT assembly keeps A's whole pattern.
+    live_a: Vec<f64>,
+    live_colptr: Vec<usize>,
+    live_rowval: Vec<usize>,
+    live_rows: Rows,
+    live_fill: Vec<usize>,
     kkt: ReducedKkt,
     /// The rows declared switchable ([`with_switchable_rows`](Self::with_switchable_rows)),
     /// ascending, and for each whether it is off — at most one nonzero value — in the current
@@ -315,6 +325,11 @@ impl InteriorPoint {
             p_rowval: p_rowval.to_vec(),
             a_colptr: a_colptr.to_vec(),
             a_rowval: a_rowval.to_vec(),
+            live_a: Vec::with_capacity(a_rowval.len()),
+            live_colptr: Vec::with_capacity(n + 1),
+            live_rowval: Vec::with_capacity(a_rowval.len()),
+            live_rows: rows.clone(),
+            live_fill: vec![0; m + 1],
             rows,
             kkt,
             off: Vec::new(),
@@ -467,6 +482,7 @@ impl InteriorPoint {
         assert_eq!(b.len(), self.m, "b");
         let (m0, tol) = (self.cones.zero, self.settings.tolerance);
         self.select_kkt(a);
+        self.compact(a);
         self.iterations = 0;
         let mut warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
         self.has_solution = false;
@@ -480,7 +496,7 @@ impl InteriorPoint {
         let degree = (self.cones.nonneg + self.cones.soc.len()).max(1) as f64;
         let (qn, bn) = (inf_norm(q), inf_norm(b));
         loop {
-            let res = self.residuals(p, q, a, b);
+            let res = self.residuals(p, q, b);
             self.objective = res.pobj;
             if !(res.primal.is_finite() && res.dual.is_finite() && res.gap.is_finite()) {
                 return IpmStatus::NumericalError;
@@ -514,7 +530,7 @@ impl InteriorPoint {
             }
             // The affine direction only sets the centring (through its step to the boundary
             // and the gap there): it is not refined.
-            self.direction(p, a, false);
+            self.direction(p, false);
             let alpha_aff = self.step_to_boundary().min(1.0);
             let gap_aff = self.gap_after(alpha_aff);
             // (No cone rows: no gap and no centring.)
@@ -525,14 +541,14 @@ impl InteriorPoint {
             self.scaling.apply_w(&self.dz[m0..], &mut self.tmp2);
             let mu = res.gap / degree;
             self.scaling.corrector(sigma * mu, &self.tmp, &self.tmp2, &mut self.u);
-            self.direction(p, a, true);
+            self.direction(p, true);
             let mut alpha = (0.99 * self.step_to_boundary()).min(1.0);
             if self.gap_after(alpha) > res.gap {
                 // Mehrotra's second-order term, taken from a poor affine step, can make the
                 // combined step raise the gap (and cycle); centre without it instead.
                 self.tmp.fill(0.0);
                 self.scaling.corrector(sigma * mu, &self.tmp, &self.tmp, &mut self.u);
-                self.direction(p, a, true);
+                self.direction(p, true);
                 alpha = (0.99 * self.step_to_boundary()).min(1.0);
                 // A long centring step can still raise the gap through its second-order
                 // term α²·ΔsᵀΔz, and the iterates then cycle between the cone boundaries
@@ -564,6 +580,26 @@ impl InteriorPoint {
                 self.s[r] += alpha * self.ds[r];
             }
         }
+    }
+
+    /// This solve's nonzero entries of `a` into the `live_*` arrays (allocation-free: their
+    /// capacities are A's pattern's).
+    fn compact(&mut self, a: &[f64]) {
+        self.live_a.clear();
+        self.live_rowval.clear();
+        self.live_colptr.clear();
+        self.live_colptr.push(0);
+        for c in 0..self.n {
+            for k in self.a_colptr[c]..self.a_colptr[c + 1] {
+                if a[k] != 0.0 {
+                    self.live_a.push(a[k]);
+                    self.live_rowval.push(self.a_rowval[k]);
+                }
+            }
+            self.live_colptr.push(self.live_a.len());
+        }
+        let pattern = (&self.live_colptr[..], &self.live_rowval[..]);
+        self.live_rows.rebuild(self.m, pattern, &mut self.live_fill);
     }
 
     /// Makes `kkt` the analysis for this solve's switched-off rows (switchable rows with at
@@ -652,9 +688,10 @@ impl InteriorPoint {
             *r = -qi;
         }
         self.kkt.rhs[n..].copy_from_slice(&b[..m0]);
+        let (live, rows) = (&self.live_a, &self.live_rows);
         for r in m0..self.m {
-            for &(c, pp) in self.rows.row(r) {
-                self.kkt.rhs[c] += a[pp] * b[r];
+            for &(c, pp) in rows.row(r) {
+                self.kkt.rhs[c] += live[pp] * b[r];
             }
         }
         self.kkt.solve();
@@ -662,7 +699,7 @@ impl InteriorPoint {
         self.z[..m0].copy_from_slice(&self.kkt.sol[n..]);
         self.s.fill(0.0);
         for r in m0..self.m {
-            let g = self.rows.dot_from(-b[r], r, a, &self.x);
+            let g = self.live_rows.dot_from(-b[r], r, &self.live_a, &self.x);
             self.z[r] = g;
             self.s[r] = -g;
         }
@@ -673,7 +710,7 @@ impl InteriorPoint {
 
     /// r_x = Px + q + Aᵀz and r_z = Ax + s − b (into `rx`, `rz`), their norms, the gap sᵀz
     /// and the primal and dual objectives.
-    fn residuals(&mut self, p: &[f64], q: &[f64], a: &[f64], b: &[f64]) -> Residuals {
+    fn residuals(&mut self, p: &[f64], q: &[f64], b: &[f64]) -> Residuals {
         let (n, m0) = (self.n, self.cones.zero);
         self.rx.copy_from_slice(q);
         let mut xpx = 0.0;
@@ -690,9 +727,10 @@ impl InteriorPoint {
             }
         }
         self.rz.iter_mut().zip(b).zip(&self.s).for_each(|((r, bi), si)| *r = si - bi);
+        let a = &self.live_a;
         for c in 0..n {
-            for k in self.a_colptr[c]..self.a_colptr[c + 1] {
-                let r = self.a_rowval[k];
+            for k in self.live_colptr[c]..self.live_colptr[c + 1] {
+                let r = self.live_rowval[k];
                 self.rx[c] += a[k] * self.z[r];
                 self.rz[r] += a[k] * self.x[c];
             }
@@ -728,7 +766,7 @@ impl InteriorPoint {
     ///
     /// solved through the reduced KKT matrix, then, if `refine`, refined against this full
     /// system.
-    fn direction(&mut self, p: &[f64], a: &[f64], refine: bool) {
+    fn direction(&mut self, p: &[f64], refine: bool) {
         let (n, m0, m) = (self.n, self.cones.zero, self.m);
         let mut nw = std::mem::take(&mut self.newton);
         for (r, x) in nw.b1.iter_mut().zip(&self.rx) {
@@ -741,7 +779,7 @@ impl InteriorPoint {
         nw.r1.copy_from_slice(&nw.b1);
         nw.r2.copy_from_slice(&nw.b2);
         nw.r3.copy_from_slice(&nw.b3);
-        self.reduced_solve(a, &mut nw);
+        self.reduced_solve(&mut nw);
         self.dx.copy_from_slice(&nw.cx);
         self.dz.copy_from_slice(&nw.cz);
         self.ds.copy_from_slice(&nw.cs);
@@ -765,9 +803,10 @@ impl InteriorPoint {
             for ((r, b), d) in nw.r2.iter_mut().zip(&nw.b2).zip(&self.ds) {
                 *r = b - d;
             }
+            let a = &self.live_a;
             for c in 0..n {
-                for k in self.a_colptr[c]..self.a_colptr[c + 1] {
-                    let r = self.a_rowval[k];
+                for k in self.live_colptr[c]..self.live_colptr[c + 1] {
+                    let r = self.live_rowval[k];
                     nw.r1[c] -= a[k] * self.dz[r];
                     nw.r2[r] -= a[k] * self.dx[c];
                 }
@@ -781,7 +820,7 @@ impl InteriorPoint {
             if err <= target {
                 break;
             }
-            self.reduced_solve(a, &mut nw);
+            self.reduced_solve(&mut nw);
             self.dx.iter_mut().zip(&nw.cx).for_each(|(d, c)| *d += c);
             self.dz.iter_mut().zip(&nw.cz).for_each(|(d, c)| *d += c);
             self.ds.iter_mut().zip(&nw.cs).for_each(|(d, c)| *d += c);
@@ -791,8 +830,9 @@ impl InteriorPoint {
 
     /// One solve of the Newton system with right-hand side (r1, r2, r3) through the reduced
     /// KKT factorization, into (cx, cz, cs).
-    fn reduced_solve(&mut self, a: &[f64], nw: &mut Newton) {
+    fn reduced_solve(&mut self, nw: &mut Newton) {
         let (n, m0, m) = (self.n, self.cones.zero, self.m);
+        let (a, rows) = (&self.live_a, &self.live_rows);
         // v = W r3 − r2_G; Δz_G = W⁻²(GΔx + v); Δs_G = r2_G − GΔx.
         self.scaling.apply_w(&nw.r3, &mut nw.t1);
         for r in m0..m {
@@ -801,7 +841,7 @@ impl InteriorPoint {
         self.scaling.apply_winv2(&nw.v, &mut nw.t2, &mut nw.t3);
         self.kkt.rhs[..n].copy_from_slice(&nw.r1);
         for r in m0..m {
-            for &(c, pp) in self.rows.row(r) {
+            for &(c, pp) in rows.row(r) {
                 self.kkt.rhs[c] -= a[pp] * nw.t2[r - m0];
             }
         }
@@ -810,7 +850,7 @@ impl InteriorPoint {
         nw.cx.copy_from_slice(&self.kkt.sol[..n]);
         nw.cz[..m0].copy_from_slice(&self.kkt.sol[n..]);
         for r in m0..m {
-            let g = self.rows.dot(r, a, &nw.cx);
+            let g = rows.dot(r, a, &nw.cx);
             nw.cs[r] = nw.r2[r] - g;
             nw.t1[r - m0] = g + nw.v[r - m0];
         }
