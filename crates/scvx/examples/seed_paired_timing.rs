@@ -1,7 +1,8 @@
 //! Paired timing of the seed's variants: the plain solve, the collision variant (with and
 //! without the clearances' peak rows) and both with interval bounds, alternated in one
 //! process so that every variant sees the same phases of a machine whose speed drifts, then
-//! the median of each and its ratio to the plain solve. Criterion's benches
+//! the median of each, its ratio to the plain solve and the medians of its discretization
+//! and subproblem times. Criterion's benches
 //! (`cargo bench -p armature-scvx --bench seed`) measure the variants one after another, so
 //! their ratios move with the machine's phase; these do not.
 //!
@@ -45,30 +46,39 @@ fn main() {
         seeds.iter().map(|s| Ptr::new(s.ocp.clone(), PtrSettings::default())).collect();
     let mut times = vec![Vec::with_capacity(rounds); seeds.len()];
     let mut outcome = vec![(0, 0.0); seeds.len()];
+    let mut parts = vec![(Vec::new(), Vec::new()); seeds.len()];
     for _ in 0..rounds {
         for (i, s) in seeds.iter().enumerate() {
             let t = std::time::Instant::now();
             let r = solvers[i].solve(&s.x, &s.u, &s.s).expect("the seed's sizes match");
             times[i].push(t.elapsed().as_secs_f64() * 1e3);
             outcome[i] = (r.history.len(), r.final_time);
+            parts[i].0.push(r.timings.discretization_ms);
+            parts[i].1.push(r.timings.subproblem_ms);
         }
     }
-    let medians: Vec<f64> = times
-        .iter_mut()
-        .map(|v| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        })
-        .collect();
-    println!("variant                       its        T   median ms   ratio");
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let medians: Vec<f64> = times.iter_mut().map(median).collect();
+    println!(
+        "variant                       its        T   median ms   ratio   discr. ms   subpr. ms"
+    );
     for (i, (name, _)) in variants.iter().enumerate() {
+        let (d, s) = &mut parts[i];
         println!(
-            "{name:28} {:4} {:8.4} {:11.1} {:7.2}",
+            "{name:28} {:4} {:8.4} {:11.1} {:7.2} {:11.1} {:11.1}",
             outcome[i].0,
             outcome[i].1,
             medians[i],
-            medians[i] / medians[0]
+            medians[i] / medians[0],
+            median(d),
+            median(s)
         );
     }
-    println!("({rounds} rounds, medians; the ratio of each to the first)");
+    println!(
+        "({rounds} rounds, medians; the ratio of each to the first; the discretizations' and the \
+         subproblems' shares of each solve)"
+    );
 }

@@ -598,6 +598,7 @@ impl Problem {
                 function: f,
                 nodes: nodes.clone(),
                 kind: NodalKind::Inequality,
+                output_names: Vec::new(),
             });
             if c.is_equality() {
                 let f = Function::compile(&[-g], &args).map_err(sym(what))?;
@@ -606,6 +607,7 @@ impl Problem {
                     function: f,
                     nodes,
                     kind: NodalKind::Inequality,
+                    output_names: Vec::new(),
                 });
             }
         }
@@ -625,6 +627,7 @@ impl Problem {
                 function: Function::compile(&[b.g.clone()], &args).map_err(sym(what))?,
                 nodes: b.nodes.clone(),
                 kind: NodalKind::Ball { radius: b.radius },
+                output_names: Vec::new(),
             });
         }
         let mut interval_constraints = Vec::new();

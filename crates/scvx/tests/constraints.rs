@@ -124,6 +124,7 @@ fn nodal_constraint_holds_at_convergence() {
             function: g,
             nodes: vec![15],
             kind: NodalKind::Inequality,
+            output_names: Vec::new(),
         }]
     });
     let mut ptr = Ptr::new(ocp, published_ptr(100));
@@ -134,4 +135,61 @@ fn nodal_constraint_holds_at_convergence() {
     assert!(r.x[15 * 2] <= 0.3 + 1e-6, "p at node 15 = {}", r.x[15 * 2]);
     assert!(r.final_time > 2.0, "the constraint costs time: {}", r.final_time);
     assert!(r.history.last().unwrap().max_violation < 1e-6);
+}
+
+/// The entries of a vector nodal constraint are reported under their names, entries that
+/// share a name together; names that do not fit the constraint are refused.
+#[test]
+fn named_entries_of_a_nodal_constraint_are_reported_apart() {
+    let nodes = 31;
+    let names = ["position", "speed", "position"].map(String::from).to_vec();
+    let build = |names: Vec<String>, kind: NodalKind| {
+        double_integrator::problem(nodes, |p, v, a| {
+            let g = Function::compile(
+                &[Expr::concat(&[p - 0.3, 0.02 - v, p - 0.35])],
+                &[&[p.clone(), v.clone()], &[a.clone()]],
+            )
+            .unwrap();
+            vec![NodalConstraint {
+                name: "slow middle".into(),
+                function: g,
+                nodes: (10..=20).collect(),
+                kind,
+                output_names: names,
+            }]
+        })
+    };
+    // At the straight-line guess (at rest) the middle nodes violate the position entries,
+    // and the speed entry is violated by its constant −0.02 (checked at 0.02 − v).
+    let mut ptr = Ptr::new(build(names, NodalKind::Inequality), published_ptr(1));
+    let (x, u, s) = double_integrator::poor_guess(nodes);
+    ptr.start(&x, &u, &s).unwrap();
+    let r = ptr.result().unwrap();
+    let reported: Vec<_> =
+        r.violations.iter().filter(|v| !v.constraint.starts_with("dyn")).collect();
+    assert_eq!(reported.len(), 2, "{reported:?}");
+    assert_eq!(
+        (reported[0].constraint.as_str(), reported[1].constraint.as_str()),
+        ("position", "speed")
+    );
+    // Each report is the worst of its entries over the nodes, at the trajectory returned.
+    let worst = |f: &dyn Fn(f64, f64) -> f64| {
+        (10..=20)
+            .map(|k| (f(r.x[2 * k], r.x[2 * k + 1]).max(0.0), k))
+            .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a })
+    };
+    let position = worst(&|p, _| (p - 0.3).max(p - 0.35));
+    let speed = worst(&|_, v| 0.02 - v);
+    assert!(position.0 > 0.0 && speed.0 > 0.0, "the guess violates both");
+    for (report, (value, node)) in reported.iter().zip([position, speed]) {
+        assert!((report.value - value).abs() < 1e-12, "{report:?} against {value}");
+        assert_eq!(report.node, Some(node));
+    }
+    // Names for some entries only, or for a ball's entries: refused before solving.
+    let short = build(vec!["position".into()], NodalKind::Inequality);
+    let ball = build(["a", "b", "c"].map(String::from).to_vec(), NodalKind::Ball { radius: 0.1 });
+    for ocp in [short, ball] {
+        let err = Ptr::new(ocp, published_ptr(1)).solve(&x, &u, &s).unwrap_err();
+        assert!(matches!(err, armature_scvx::PtrError::NodalConstraint { .. }), "{err}");
+    }
 }

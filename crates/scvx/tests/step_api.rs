@@ -32,6 +32,7 @@ fn problem(nodes: usize) -> Ocp {
             function: g,
             nodes: vec![nodes / 2],
             kind: NodalKind::Inequality,
+            output_names: Vec::new(),
         }]
     })
 }

@@ -188,14 +188,21 @@ pub fn build_with(variant: Variant) -> Seed {
             .unwrap(),
             nodes: vec![2 * w],
             kind: NodalKind::Ball { radius: 0.01 },
+            output_names: Vec::new(),
         });
     }
-    for (name, d) in &distances {
+    // Every pair's `margin − d ≤ 0` in one function: the pairs share the forward kinematics.
+    let clearance = (!distances.is_empty()).then(|| {
+        let g: Vec<Expr> = distances.iter().map(|(_, d)| CLEARANCE_MARGIN - d).collect();
+        Function::compile(&[Expr::concat(&g)], &args).unwrap()
+    });
+    if let Some(function) = &clearance {
         nodal.push(NodalConstraint {
-            name: format!("clearance {name}"),
-            function: Function::compile(&[CLEARANCE_MARGIN - d], &args).unwrap(),
+            name: "clearance".into(),
+            function: function.clone(),
             nodes: (0..nodes).collect(),
             kind: NodalKind::Inequality,
+            output_names: distances.iter().map(|(pair, _)| format!("clearance {pair}")).collect(),
         });
     }
     let log_f = Function::compile(&[log], &args).unwrap();
@@ -205,6 +212,7 @@ pub fn build_with(variant: Variant) -> Seed {
             function: log_f.clone(),
             nodes,
             kind: NodalKind::Ball { radius: deg.to_radians() },
+            output_names: Vec::new(),
         });
     }
     debug_assert_eq!(loose_nodes.len(), 9);
@@ -272,22 +280,15 @@ pub fn build_with(variant: Variant) -> Seed {
         interval_bounds: if interval_bounds { (7..14).collect() } else { vec![] },
         // The clearances also at each segment's peak (the CTCS integral alone switches its
         // gradient on and off where the motion grazes an obstacle between the nodes).
-        interval_constraints: if collision && !without_clearance_peaks {
-            vec![armature_scvx::IntervalConstraint {
+        interval_constraints: match clearance {
+            Some(function) if !without_clearance_peaks => vec![armature_scvx::IntervalConstraint {
                 name: "clearance".into(),
-                function: Function::compile(
-                    &[Expr::concat(
-                        &distances.iter().map(|(_, d)| CLEARANCE_MARGIN - d).collect::<Vec<_>>(),
-                    )],
-                    &args,
-                )
-                .unwrap(),
+                function,
                 first: 0,
                 last: nodes - 1,
                 activation: Some(CLEARANCE_ACTIVATION),
-            }]
-        } else {
-            Vec::new()
+            }],
+            _ => Vec::new(),
         },
     };
     // CTCS integrals along the guess, so it has no defects in those rows either.
