@@ -2600,7 +2600,6 @@ fn damped_bfgs(h: &mut [f64], s: &[f64], y: &[f64], hs: &mut [f64], r: &mut [f64
 /// A trajectory's merit `J`, final time, largest defect and largest nodal violation.
 type MeritValues = (f64, f64, f64, f64);
 
-/// The constraint matrix's values from their sources at one linearization.
 /// Runs `f(lane, jobs, vals, jacs)` over the jobs `0..count` split into contiguous chunks of
 /// about equal total `weight`, one per lane: the first on the calling thread, the others
 /// spawned on the rayon pool (one small allocation each, as the discretization's lanes).
@@ -2655,6 +2654,7 @@ fn for_lanes<F>(
     });
 }
 
+/// The constraint matrix's values from their sources at one linearization.
 fn fill_values(
     sources: &[Source],
     d: &Discretization,

@@ -481,8 +481,8 @@ impl InteriorPoint {
         assert_eq!(a.len(), self.rows.nnz(), "A values");
         assert_eq!(b.len(), self.m, "b");
         let (m0, tol) = (self.cones.zero, self.settings.tolerance);
-        self.select_kkt(a);
         self.compact(a);
+        self.select_kkt();
         self.iterations = 0;
         let mut warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
         self.has_solution = false;
@@ -603,12 +603,13 @@ impl InteriorPoint {
     }
 
     /// Makes `kkt` the analysis for this solve's switched-off rows (switchable rows with at
-    /// most one nonzero value in `a`): the current one, a cached one, or — once per set of
-    /// switched-off rows, allocating — a new analysis. A caller that zeroes the coefficients
-    /// of rows it knows to be slack (PTR's far peak rows) then factors a smaller K.
-    fn select_kkt(&mut self, a: &[f64]) {
+    /// most one nonzero value, read off the compacted A): the current one, a cached one, or —
+    /// once per set of switched-off rows, allocating — a new analysis. A caller that zeroes
+    /// the coefficients of rows it knows to be slack (PTR's far peak rows) then factors a
+    /// smaller K.
+    fn select_kkt(&mut self) {
         for (d, &r) in self.off.iter_mut().zip(&self.switchable) {
-            *d = self.rows.row(r).iter().filter(|e| a[e.1] != 0.0).nth(1).is_none();
+            *d = self.live_rows.row(r).len() <= 1;
         }
         if self.off == self.kkt_off {
             return;
