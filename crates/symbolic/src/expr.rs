@@ -221,6 +221,20 @@ pub trait ExternalFunction: Send + Sync + core::fmt::Debug {
     fn n_outputs(&self) -> usize;
     /// Values into `values` (length m) and the Jacobian into `jacobian` (m × n, row-major).
     fn eval(&self, inputs: &[f64], values: &mut [f64], jacobian: &mut [f64]);
+    /// Whether [`hessian`](Self::hessian) supplies second derivatives. The default is
+    /// `false`: the function's own curvature is then left out of
+    /// [`Function::eval_hessian`](crate::Function::eval_hessian), and
+    /// [`HessianPattern::missing_second_derivatives`](crate::HessianPattern::missing_second_derivatives)
+    /// names it (a caller can add a Gauss–Newton term instead).
+    fn has_hessian(&self) -> bool {
+        false
+    }
+    /// Adds the weighted Hessian `Σₒ weights[o] ∇²fₒ(inputs)` (n × n, row-major,
+    /// symmetric) into `hessian`, which is zero on entry. Called only when
+    /// [`has_hessian`](Self::has_hessian) is true.
+    fn hessian(&self, inputs: &[f64], weights: &[f64], hessian: &mut [f64]) {
+        let _ = (inputs, weights, hessian);
+    }
 }
 
 #[derive(Debug)]

@@ -2,11 +2,11 @@
 //! input groups.
 
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use crate::lower::{Builder, InputInfo, ParamInfo};
 use crate::tape::{Arg, Tape, Workspace};
-use crate::{Expr, Shape, SparsityPattern, SymbolicError};
+use crate::{Expr, HessianPattern, Shape, SparsityPattern, SymbolicError};
 
 /// How a compiled function propagates derivatives. Both give the same values, the same
 /// sparse Jacobian pattern and the same nonzeros (up to round-off); they differ in speed.
@@ -69,20 +69,22 @@ pub struct InputSlot {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Function {
-    tape: Tape,
-    outputs: Vec<Arg>,
+    pub(crate) tape: Tape,
+    pub(crate) outputs: Vec<Arg>,
     output_shapes: Vec<Shape>,
     groups: Vec<Vec<InputSlot>>,
     group_offsets: Vec<usize>,
-    n_inputs: usize,
+    pub(crate) n_inputs: usize,
     params: Vec<ParamInfo>,
-    param_values: Vec<f64>,
+    pub(crate) param_values: Vec<f64>,
     pattern: SparsityPattern,
     /// For output entry k with slot s, the nonzero position of each of its dependency
     /// columns: `jac_pos[jac_start[k]..jac_start[k+1]]`.
     jac_start: Vec<u32>,
     jac_pos: Vec<u32>,
-    dense: bool,
+    pub(crate) dense: bool,
+    /// The weighted Hessian's structure, computed on first use.
+    pub(crate) hessian: OnceLock<HessianPattern>,
 }
 
 impl Function {
@@ -182,6 +184,7 @@ impl Function {
             pattern,
             jac_start,
             jac_pos,
+            hessian: OnceLock::new(),
         })
     }
 
@@ -374,7 +377,7 @@ impl Function {
     }
 
     /// Buffer lengths and the workspace's tape.
-    fn check(
+    pub(crate) fn check(
         &self,
         input: &[f64],
         ws: &Workspace,
@@ -400,7 +403,7 @@ impl Function {
     }
 
     /// The output values after a run.
-    fn read_values(&self, ws: &Workspace, values: &mut [f64]) {
+    pub(crate) fn read_values(&self, ws: &Workspace, values: &mut [f64]) {
         for (v, a) in values.iter_mut().zip(&self.outputs) {
             *v = match *a {
                 Arg::Const(c) => c,
@@ -410,7 +413,7 @@ impl Function {
     }
 
     /// The Jacobian's nonzeros after a run with derivatives; the rows not `needed` are zero.
-    fn read_jacobian(&self, ws: &Workspace, jac: &mut [f64], needed: Option<&[bool]>) {
+    pub(crate) fn read_jacobian(&self, ws: &Workspace, jac: &mut [f64], needed: Option<&[bool]>) {
         for (k, a) in self.outputs.iter().enumerate() {
             let pos = &self.jac_pos[self.jac_start[k] as usize..self.jac_start[k + 1] as usize];
             let slot = match *a {

@@ -5,6 +5,7 @@ mod constraint;
 mod error;
 mod expr;
 mod function;
+mod hessian;
 mod lower;
 mod parser;
 mod pattern;
@@ -15,6 +16,7 @@ pub use constraint::{Constraint, Nodes, Timing};
 pub use error::SymbolicError;
 pub use expr::{BinaryOp, Expr, ExternalFunction, LieOp, Norm, UnaryOp};
 pub use function::{DENSE_MAX_INPUTS, DerivativeMode, Function, InputSlot};
+pub use hessian::{HessianPattern, HessianWorkspace};
 pub use parser::{
     MAX_IDENTITY, MAX_NESTING, MAX_TOKENS, SymbolTable, parse_constraint, parse_expr,
 };

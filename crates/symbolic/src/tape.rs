@@ -455,7 +455,15 @@ impl Tape {
 
     /// Runs a user function: operands gathered after the local Jacobian in scratch, values
     /// into the output slots, Jacobian into `scratch[0..nout·n]`.
-    fn eval_external(&self, func: u32, a0: u32, n: u32, out: u32, nout: u32, ws: &mut Workspace) {
+    pub(crate) fn eval_external(
+        &self,
+        func: u32,
+        a0: u32,
+        n: u32,
+        out: u32,
+        nout: u32,
+        ws: &mut Workspace,
+    ) {
         let (n, m) = (n as usize, nout as usize);
         let (jac, rest) = ws.scratch.split_at_mut(m * n);
         let (inputs, values) = rest.split_at_mut(n);
@@ -618,7 +626,7 @@ impl Tape {
     }
 
     #[inline(always)]
-    fn range(&self, s: u32) -> (usize, usize) {
+    pub(crate) fn range(&self, s: u32) -> (usize, usize) {
         let o = self.dep_off[s as usize] as usize;
         (o, self.dep_off[s as usize + 1] as usize - o)
     }
@@ -734,7 +742,15 @@ impl Tape {
 
     /// Values of a Lie node into its output slots and its local Jacobian (row per output)
     /// into `scratch[0..nout·n]`.
-    fn eval_lie(&self, op: LieOp, a0: u32, n: u32, out: u32, nout: u32, ws: &mut Workspace) {
+    pub(crate) fn eval_lie(
+        &self,
+        op: LieOp,
+        a0: u32,
+        n: u32,
+        out: u32,
+        nout: u32,
+        ws: &mut Workspace,
+    ) {
         let args = &self.args[a0 as usize..(a0 + n) as usize];
         let x = |k: usize| ws.val[args[k] as usize];
         let n = n as usize;
@@ -873,7 +889,7 @@ fn binary_operands_used(op: BinaryOp, x: f64, y: f64) -> (bool, bool) {
 }
 
 /// Value of a reduction, and its partials into `partials[0..args.len()]`.
-fn reduce_value(op: Reduce, args: &[u32], val: &[f64], partials: &mut [f64]) -> f64 {
+pub(crate) fn reduce_value(op: Reduce, args: &[u32], val: &[f64], partials: &mut [f64]) -> f64 {
     match op {
         Reduce::Norm2 => {
             let s: f64 = args.iter().map(|&a| val[a as usize].powi(2)).sum();

@@ -1,6 +1,6 @@
 //! Evaluation allocates nothing after compilation: a counting global allocator watches
 //! repeated evaluations (values and Jacobians, sparse and dense modes, Lie nodes, norms,
-//! vmap) on this thread.
+//! vmap) and weighted Hessians and Hessian-vector products on this thread.
 
 mod common;
 
@@ -60,6 +60,28 @@ fn evaluation_is_allocation_free() {
         });
         assert_eq!(n, 0, "evaluation allocated {n} times (dense = {})", f.is_dense());
         assert!(v.iter().chain(&jac).all(|x| x.is_finite()));
+    }
+    // Weighted Hessians and Hessian-vector products, every node kind, both modes.
+    for f in &fns {
+        let mut hws = f.hessian_workspace();
+        let mut v = vec![0.0; f.n_outputs()];
+        let mut jac = vec![0.0; f.jacobian_pattern().nnz()];
+        let mut h = vec![0.0; f.hessian_pattern().nnz()];
+        let mut hv = vec![0.0; f.n_inputs()];
+        let w: Vec<f64> = (0..f.n_outputs()).map(|i| (i as f64 * 0.37).cos()).collect();
+        let dir: Vec<f64> = (0..13).map(|i| (i as f64 * 0.23).sin()).collect();
+        let mut x: Vec<f64> = (0..13).map(|i| (i as f64 * 0.61).sin()).collect();
+        let n = allocations_during(|| {
+            for k in 0..50 {
+                x[k % 13] += 0.01;
+                f.eval_hessian(&x, &w, &mut hws, &mut v, Some(&mut jac), &mut h).unwrap();
+                f.eval_hessian(&x, &w, &mut hws, &mut v, None, &mut h).unwrap();
+                f.hessian_vector_product(&x, &w, &dir, &mut hws, &mut v, &mut hv).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "Hessian evaluation allocated {n} times (dense = {})", f.is_dense());
+        assert!(h.iter().chain(&hv).all(|x| x.is_finite()));
+        assert!(h.iter().any(|x| *x != 0.0));
     }
     // The counter does see allocations (the test can fail).
     assert!(allocations_during(|| drop(std::hint::black_box(vec![1u8; 64]))) > 0);

@@ -3,6 +3,8 @@
 
 use armature_symbolic::{Expr, Function};
 
+pub(crate) mod tree;
+
 pub(crate) const D1: f64 = 0.340;
 pub(crate) const A2: f64 = 0.300;
 pub(crate) const A3: f64 = 0.250;
