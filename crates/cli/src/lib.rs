@@ -13,6 +13,7 @@ pub mod plot;
 pub mod problem_file;
 pub mod streaming;
 pub mod task;
+pub mod view;
 
 /// Command-line arguments of the `armature` binary.
 #[derive(Debug, Parser)]
@@ -38,6 +39,8 @@ pub enum Command {
     Demo(commands::demo::DemoArgs),
     /// What a task compiles to, without solving: constraints, sparsity, subproblem sizes.
     Inspect(commands::inspect::InspectArgs),
+    /// Write the interactive 3D view of a result file (one self-contained HTML page).
+    View(commands::view::ViewArgs),
     /// JSON Schema of the task or problem file format.
     Schema(commands::schema::SchemaArgs),
     /// Print the trajectories and progress a `--stream RUN` solve publishes.
@@ -72,6 +75,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> i32 {
         Command::Demo(args) => commands::demo::run(&args, out),
         Command::Listen(args) => commands::listen::run(&args, out),
         Command::Inspect(args) => commands::inspect::run(&args, out),
+        Command::View(args) => commands::view::run(&args, out),
         Command::Schema(args) => commands::schema::run(&args, out),
     };
     match result {

@@ -70,19 +70,34 @@ pub fn csv(table: &std::collections::BTreeMap<String, Vec<Vec<f64>>>) -> String 
     out
 }
 
+/// A result file: the solver's [`Solution`] with, for a task, the scene the 3D view draws
+/// and the iterates it can show.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct ResultFile<'a> {
+    /// The solution (its keys at the top level).
+    #[serde(flatten)]
+    pub solution: &'a Solution,
+    /// The task's geometry and limits.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scene: Option<&'a crate::view::Scene>,
+    /// The guess and the SCvx iterates (end effector at the nodes).
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    pub iterates: &'a [crate::view::Iterate],
+}
+
 /// Writes what was asked for: the JSON result (`-` = standard output) and the CSV tables.
 ///
 /// # Errors
 /// Serialization or writing failures ([`exit::IO`]).
 pub fn write_solution(
-    solution: &Solution,
+    result: &ResultFile<'_>,
     json: Option<&Path>,
     csv_dir: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<Vec<PathBuf>, CliError> {
     let mut written = Vec::new();
     if let Some(path) = json {
-        let text = serde_json::to_string_pretty(solution)
+        let text = serde_json::to_string_pretty(result)
             .map_err(|e| CliError { message: e.to_string(), code: exit::IO })?;
         if path == Path::new("-") {
             writeln!(out, "{text}").map_err(|e| io_error(path, e))?;
@@ -95,6 +110,7 @@ pub fn write_solution(
         }
     }
     if let Some(dir) = csv_dir {
+        let solution = result.solution;
         ensure_dir(dir)?;
         for (name, table) in
             [("nodes.csv", &solution.nodes), ("trajectory.csv", &solution.trajectory)]
@@ -105,4 +121,17 @@ pub fn write_solution(
         }
     }
     Ok(written)
+}
+
+/// Writes the 3D view of `data` to `path`.
+///
+/// # Errors
+/// Serialization or writing failures ([`exit::IO`]).
+pub fn write_html(data: &crate::view::ViewData, path: &Path) -> Result<PathBuf, CliError> {
+    let page = crate::view::html(data).map_err(|e| io_error(path, e))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        ensure_dir(dir)?;
+    }
+    write_atomic(path, page.as_bytes())?;
+    Ok(path.to_path_buf())
 }

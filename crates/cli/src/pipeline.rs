@@ -29,6 +29,22 @@ pub struct PlannedWaypoint {
     pub tolerance: f64,
 }
 
+/// An orientation range as planned: the end-effector rotation stays within
+/// `tolerance_deg` of `quaternion_wxyz` from node `first` to node `last`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedOrientation {
+    /// `from..to` (the waypoint names).
+    pub name: String,
+    /// The desired rotation.
+    pub quaternion_wxyz: [f64; 4],
+    /// The largest rotation angle away from it (degrees).
+    pub tolerance_deg: f64,
+    /// First node.
+    pub first: usize,
+    /// Last node.
+    pub last: usize,
+}
+
 /// Everything the task defines, checked, with the compiled problem's inputs.
 #[derive(Debug)]
 pub struct Plan {
@@ -46,6 +62,10 @@ pub struct Plan {
     pub table_height: Option<f64>,
     /// The collision model, if any.
     pub collision: Option<CollisionModel>,
+    /// The clearance every collision pair keeps (m).
+    pub margin: f64,
+    /// Orientation ranges.
+    pub orientation: Vec<PlannedOrientation>,
     /// The SCvx problem.
     pub problem: Problem,
     /// Dilation guess (N values).
@@ -236,7 +256,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         keyframes.push(Keyframe { node: p.node, position: p.position, quaternion_wxyz });
     }
     // Orientation ranges.
-    let mut ranges = Vec::new();
+    let (mut ranges, mut orientation) = (Vec::new(), Vec::new());
     for o in &task.orientation {
         let r = SO3::from_quaternion_wxyz(*o.quaternion_wxyz.get_ref())
             .map_err(|e| src.error(&o.quaternion_wxyz, e.to_string()))?;
@@ -258,6 +278,13 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             ));
         }
         ranges.push((r, deg, a, b, format!("{}..{}", o.from.get_ref(), o.to.get_ref())));
+        orientation.push(PlannedOrientation {
+            name: format!("{}..{}", o.from.get_ref(), o.to.get_ref()),
+            quaternion_wxyz: *o.quaternion_wxyz.get_ref(),
+            tolerance_deg: deg,
+            first: a,
+            last: b,
+        });
     }
     let table_height = match &task.table_height {
         Some(h) if !h.get_ref().is_finite() => {
@@ -376,9 +403,19 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         });
     }
     let mut between_nodes = Vec::new();
+    let mut outputs =
+        vec![("ee_position".to_string(), p_ee.clone()), ("ee_pose".to_string(), fk.t_ee.clone())];
+    for (name, frame) in &fk.frames {
+        outputs.push((format!("T_{name}"), frame.clone()));
+    }
     if let Some((model, margin, activation)) = &collision {
         let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
         let distances = model.symbolic_distances(&positions);
+        if !distances.is_empty() {
+            // Every pair's signed distance, in the model's pair order (the 3D view's readout).
+            let all: Vec<Expr> = distances.iter().map(|(_, d)| d.clone()).collect();
+            outputs.push(("clearance".to_string(), Expr::concat(&all)));
+        }
         if let (Some(activation), false) = (activation, distances.is_empty()) {
             between_nodes.push(BetweenNodes {
                 name: "clearance".into(),
@@ -399,10 +436,6 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 (*margin - &d).le(0.0).named(format!("clearance {pair} at the nodes")).into(),
             );
         }
-    }
-    let mut outputs = vec![("ee_position".to_string(), p_ee.clone())];
-    for (name, frame) in &fk.frames {
-        outputs.push((format!("T_{name}"), frame.clone()));
     }
     let inv: Vec<f64> = inertia.iter().map(|i| 1.0 / i).collect();
     let problem = Problem {
@@ -427,7 +460,9 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         velocity_limit,
         torque_limit,
         table_height,
+        margin: collision.as_ref().map_or(0.0, |(_, m, _)| *m),
         collision: collision.map(|(m, _, _)| m),
+        orientation,
         problem,
         dilation_guess,
         ik,

@@ -9,3 +9,4 @@ pub mod listen;
 pub mod robot;
 pub mod schema;
 pub mod solve;
+pub mod view;

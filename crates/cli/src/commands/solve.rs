@@ -8,9 +8,11 @@ use armature_bridge::{BridgeError, Status};
 use armature_scvx::IterationTable;
 use clap::Args;
 
+use crate::output::ResultFile;
 use crate::pipeline::plan;
 use crate::streaming::Streamer;
 use crate::task::{Source, parse};
+use crate::view::{Iterate, Scene, ViewData};
 use crate::{CliError, exit, output};
 
 /// Where the results go (shared by `solve` and `demo`).
@@ -25,6 +27,9 @@ pub struct OutputArgs {
     /// Write plots (SVG and PNG) into this folder.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write an interactive 3D view of the result (one self-contained HTML file).
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
     /// Print nothing but errors (no iteration table, no summary).
     #[arg(short, long)]
     pub quiet: bool,
@@ -157,10 +162,21 @@ pub fn run_task(
     let quiet = o.quiet;
     let layout = compiled.layout().clone();
     let mut stream_error = None;
+    let mut iterates: Vec<Iterate> = plan.as_ref().map(guess_iterate).into_iter().collect();
     let solution = compiled
         .solve_with(|it, traj| {
             if !quiet {
                 let _ = IterationTable::row(&mut std::io::stderr(), it);
+            }
+            if plan.is_some()
+                && let Ok(tables) = layout.nodal_tables(traj)
+                && let Some(ee) = tables.get("ee_position")
+            {
+                iterates.push(Iterate {
+                    iteration: it.iteration,
+                    final_time: traj.final_time,
+                    ee: ee.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+                });
             }
             if let (Some(s), None) = (streamer.as_mut(), &stream_error) {
                 let status = it.status.map_or(Status::Running, |st| {
@@ -211,10 +227,15 @@ pub fn run_task(
     if let Some(v) = &solution.max_violation {
         say(&format!("largest violation: {} = {:.3e} at node {:?}", v.constraint, v.value, v.node));
     }
-    let mut written =
-        output::write_solution(&solution, o.output.as_deref(), o.csv.as_deref(), out)?;
+    let scene = plan.as_ref().map(Scene::from_plan);
+    let result = ResultFile { solution: &solution, scene: scene.as_ref(), iterates: &iterates };
+    let mut written = output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out)?;
     if let Some(dir) = &o.plot {
         written.extend(crate::plot::write_plots(plan.as_ref(), &solution, dir)?);
+    }
+    if let Some(path) = &o.html {
+        let data = ViewData::from_solution(src.name, &solution, scene, iterates);
+        written.push(output::write_html(&data, path)?);
     }
     for p in &written {
         say(&format!("wrote {}", p.display()));
@@ -235,4 +256,20 @@ pub fn run_task(
             code: exit::NOT_CONVERGED,
         })
     }
+}
+
+/// The initial guess as an iterate: the end effector at the IK configurations of the nodes.
+fn guess_iterate(plan: &crate::pipeline::Plan) -> Iterate {
+    let mut fk = plan.chain.fk_workspace();
+    let ee = plan
+        .ik
+        .q
+        .iter()
+        .filter_map(|q| plan.chain.forward(q, &mut fk).ok().map(|()| fk.ee().translation().into()))
+        .collect();
+    let final_time = match plan.problem.time {
+        armature_scvx::Time::Free { guess, .. } => guess,
+        armature_scvx::Time::Fixed(t) => t,
+    };
+    Iterate { iteration: 0, final_time, ee }
 }
