@@ -4,6 +4,7 @@
 pub mod ctcs;
 pub mod discretization;
 pub mod ipm;
+pub mod ocp;
 pub mod problem;
 pub mod ptr;
 mod sparse;

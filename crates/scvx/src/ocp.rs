@@ -1,0 +1,146 @@
+//! The solver-level optimal control problem: dynamics, nodes, bounds, boundary values,
+//! nodal and interval constraints, as the PTR loop reads it.
+
+use serde::Serialize;
+
+use crate::Dynamics;
+
+/// The optimal control problem in dynamics form.
+#[derive(Debug, Clone)]
+pub struct Ocp {
+    /// Compiled dynamics.
+    pub dynamics: Dynamics,
+    /// Number of nodes N (≥ 2).
+    pub nodes: usize,
+    /// State bounds (±∞ for none).
+    pub x_min: Vec<f64>,
+    /// State bounds.
+    pub x_max: Vec<f64>,
+    /// Control bounds.
+    pub u_min: Vec<f64>,
+    /// Control bounds.
+    pub u_max: Vec<f64>,
+    /// Fixed initial components (`None` = free).
+    pub x_initial: Vec<Option<f64>>,
+    /// Fixed final components (`None` = free).
+    pub x_final: Vec<Option<f64>>,
+    /// Bounds of the time dilation `s` (total time = s·1 for a uniform grid).
+    pub s_min: f64,
+    /// Bounds of the time dilation.
+    pub s_max: f64,
+    /// Bounds of the final time `Δτ·Σ_{k<N−1} s_k` (a linear constraint; `(0, ∞)` for none).
+    pub final_time: (f64, f64),
+    /// Weight of the final time in the cost (0: fixed-time feasibility).
+    pub time_weight: f64,
+    /// Linear cost on final-state components `(state index, weight)`: a positive weight
+    /// minimizes `x_{N−1}[i]`, a negative one maximizes it.
+    pub final_cost: Vec<(usize, f64)>,
+    /// CTCS increments `(state row, ε, first node, last node)`: `y_{k+1} − y_k ≤ ε` for the
+    /// segments of the interval.
+    pub increments: Vec<(usize, f64, usize, usize)>,
+    /// Nodal constraints, linearised each iteration with virtual buffers.
+    pub nodal: Vec<NodalConstraint>,
+    /// State rows whose bounds `x_min ≤ x(t) ≤ x_max` are also enforced between the nodes,
+    /// at each segment's peak: the largest (smallest) value of the row on the integration
+    /// grid, refined by the parabola through the grid points around it, linearized through
+    /// the grid's sensitivities (Danskin: the peak's time held fixed) and bounded with a
+    /// virtual buffer. A CTCS integral of the positive part keeps a bound in continuous
+    /// time but its linearization is blind where the trajectory touches the bound (the
+    /// integrand has no gradient there), so a subproblem pushes through it and the merit
+    /// rejects the step; a peak row shows the subproblem the bound with a full gradient.
+    pub interval_bounds: Vec<usize>,
+    /// Nonlinear state constraints `g(x(t)) ≤ 0` enforced between the nodes the same way:
+    /// per segment and output, one buffered row at the output's peak on the integration
+    /// grid (see [`IntervalConstraint`]).
+    pub interval_constraints: Vec<IntervalConstraint>,
+}
+
+/// A constraint `g(x(t)) ≤ 0` (entrywise) on the states between the nodes of segments
+/// `first..last`, enforced at each segment's peak of each output.
+///
+/// # Math
+/// On segment k, `g_o` is evaluated at the integration grid's points `t_j`; its largest value,
+/// refined by the parabola through the best point and its neighbours, `ĝ_o = Σ_i w_i g_o(x(t_i))`,
+/// gives the buffered row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o` with the grid's
+/// sensitivities `∂x(t_i)/∂z = [Φ | B⁻ | B⁺](t_i)` and the weights held (the envelope theorem
+/// for the vertex, Danskin's for the grid maximum).
+///
+/// Why: a CTCS integral of `max(0, g)` keeps `g ≤ 0` in continuous time, but where the
+/// trajectory only touches the constraint between the nodes its linearization is blind or
+/// switches on and off (the ReLU's kink), and the merit ratio of a step swings; a peak row
+/// gives the subproblem the constraint's full gradient where it is tightest. Use it for
+/// clearances (`margin − distance`) and other state constraints the motion rides.
+///
+/// The named layer builds them from [`BetweenNodes`](crate::BetweenNodes) (see its example).
+///
+/// # Errors
+/// [`Ptr::start`] returns [`PtrError::IntervalConstraint`] if `g` depends on the controls,
+/// the segments are not within the problem's nodes or the activation distance is not
+/// positive.
+#[derive(Debug, Clone)]
+pub struct IntervalConstraint {
+    /// Name for diagnostics.
+    pub name: String,
+    /// `g`, compiled against the groups `[states], [controls]` of the dynamics; it may only
+    /// read the states.
+    pub function: armature_symbolic::Function,
+    /// First segment (= its first node).
+    pub first: usize,
+    /// One past the last segment (= the last node of the interval); `first < last ≤ N − 1`.
+    pub last: usize,
+    /// Activation distance (in `g`'s units), or `None` to keep every row. A segment's rows
+    /// are switched off while all of its peaks lie more than this below the bound
+    /// (`max_o ĝ_o < −activation` at the reference): their coefficients are zeroed, so the
+    /// subproblem drops them and the interior point factors a smaller KKT matrix (see
+    /// [`crate::ipm::InteriorPoint::with_switchable_rows`]). The segment stays watched — by
+    /// the merit, which prices every peak's violation, by the CTCS integral and the nodal
+    /// rows — and its rows come back at the first reference where a peak comes within the
+    /// distance. Choose it above what one step can move `g`: rows far from their bound are
+    /// slack in every subproblem, so dropping them does not change the steps. For
+    /// clearances, a few centimetres (the seed's collision variant: 2 cm, same iterates).
+    pub activation: Option<f64>,
+}
+
+impl IntervalConstraint {
+    /// Whether `g` reads an input past the first `states` (the states come first, the
+    /// controls after them): an interval constraint may read the states only, because the
+    /// grid records the states and their sensitivities.
+    pub fn reads_controls(&self, states: usize) -> bool {
+        self.function.jacobian_pattern().entries().any(|(_, col)| col >= states)
+    }
+}
+
+/// A (generally nonconvex) constraint on `g(x_k, u_k)` at listed nodes.
+#[derive(Debug, Clone)]
+pub struct NodalConstraint {
+    /// Name for diagnostics.
+    pub name: String,
+    /// `g`, compiled against the groups `[states], [controls]` of the dynamics.
+    pub function: armature_symbolic::Function,
+    /// Nodes where it holds.
+    pub nodes: Vec<usize>,
+    /// What it says about `g`.
+    pub kind: NodalKind,
+    /// With [`NodalKind::Inequality`]: a name per entry of `g`, under which
+    /// [`PtrResult::violations`] reports the entry (entries that share a name, together).
+    /// One vector constraint evaluates what its entries share once per node — the seed
+    /// arm's collision pairs share the forward kinematics — where one constraint per entry
+    /// would repeat it for each. Empty: the constraint is reported as one under `name` (as
+    /// it must be with [`NodalKind::Ball`]).
+    pub output_names: Vec<String>,
+}
+
+/// The meaning of a [`NodalConstraint`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum NodalKind {
+    /// `g ≤ 0` entrywise, linearised: `g(z̄) + ∇g·(z − z̄) ≤ ν_b` per entry.
+    Inequality,
+    /// `‖g‖₂ ≤ radius` (e.g. `g = p_ee − waypoint`), linearised inside the norm only:
+    /// `‖g(z̄) + ∇g·(z − z̄)‖ ≤ radius + ν_b`, a second-order cone. Keeping the norm exact
+    /// (the prox-linear model) captures the ball's curvature, which a linearised norm would
+    /// leave to the trust region.
+    Ball {
+        /// The radius.
+        radius: f64,
+    },
+}

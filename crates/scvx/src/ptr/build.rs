@@ -1,0 +1,181 @@
+//! `Ptr::new`: the subproblem pattern, value sources and row bookkeeping, computed once.
+
+use super::*;
+
+impl Ptr {
+    /// Builds the solver (the subproblem pattern is computed here, once).
+    pub fn new(ocp: Ocp, settings: PtrSettings) -> Ptr {
+        let (n, m, nn) = (ocp.dynamics.n_x(), ocp.dynamics.n_u(), ocp.nodes);
+        let v = VarLayout::new(n, m, nn);
+        let n_buffers: usize = ocp
+            .nodal
+            .iter()
+            .map(|c| {
+                c.nodes.len()
+                    * match c.kind {
+                        NodalKind::Inequality => c.function.n_outputs(),
+                        NodalKind::Ball { .. } => 1,
+                    }
+            })
+            .sum();
+        let interval_rows: Vec<usize> =
+            ocp.interval_bounds.iter().copied().filter(|&r| r < n).collect();
+        let n_peaks: usize = interval_rows
+            .iter()
+            .map(|&r| {
+                (nn - 1)
+                    * (usize::from(ocp.x_max[r].is_finite())
+                        + usize::from(ocp.x_min[r].is_finite()))
+            })
+            .sum::<usize>()
+            + ocp
+                .interval_constraints
+                .iter()
+                .map(|c| rows::peaks::segments(c, nn).len() * c.function.n_outputs())
+                .sum::<usize>();
+        let n_vars = v.vb0 + n_buffers + n_peaks;
+        // Evaluation buffers of the nodal constraints, per (constraint, node).
+        let (mut g_offsets, mut nodal_blocks) = (Vec::new(), Vec::new());
+        let (mut gv, mut gj) = (0, 0);
+        for (ci, c) in ocp.nodal.iter().enumerate() {
+            for &k in &c.nodes {
+                g_offsets.push((gv, gj));
+                nodal_blocks.push((ci, k));
+                gv += c.function.n_outputs();
+                gj += c.function.jacobian_pattern().nnz();
+            }
+        }
+        // The rows, cone by cone: zero (dynamics, boundary), nonnegative (bounds, nodal
+        // inequalities, peaks, nonnegativity), second-order (balls).
+        let tp = ocp.dynamics.transition_pattern();
+        let mut rb = RowBuilder::default();
+        rows::dynamics::push(&v, tp, &mut rb);
+        rows::boundary::push(&v, &ocp, &mut rb);
+        let n_zero = rb.row;
+        rows::bounds::push(&v, &ocp, &mut rb);
+        let mut nodal = rows::nodal::push_inequalities(&v, &ocp, &g_offsets, &mut rb);
+        let mut peaks =
+            rows::peaks::push_state_peaks(&v, &ocp, tp, &interval_rows, v.vb0 + n_buffers, &mut rb);
+        let pts = settings.discretization.substeps + 1;
+        rows::peaks::push_function_peaks(&v, &ocp, tp, pts, &mut peaks, &mut rb);
+        rows::bounds::push_nonnegative(&v, n_vars, &mut rb);
+        let n_nonneg = rb.row - n_zero;
+        let socs = rows::nodal::push_balls(&v, &ocp, &g_offsets, &mut nodal, &mut rb);
+        let RowBuilder { mut trip, b, row } = rb;
+        let (x0, u0, s0, vp0, vb0) = (v.x0, v.u0, v.s0, v.vp0, v.vb0);
+        let nodal_rows = nodal.rows;
+        let buffers = nodal.buffers;
+        let rows::peaks::PeakPlacement {
+            peaks, src: peak_src, stride: peak_stride, intervals, ..
+        } = peaks;
+        trip.sort_by_key(|t| (t.1, t.0));
+        let mut a_colptr = vec![0; n_vars + 1];
+        for t in &trip {
+            a_colptr[t.1 + 1] += 1;
+        }
+        for c in 0..n_vars {
+            a_colptr[c + 1] += a_colptr[c];
+        }
+        let a_rowval: Vec<usize> = trip.iter().map(|t| t.0).collect();
+        let sources: Vec<Source> = trip.iter().map(|t| t.2).collect();
+        // Quasi-Newton elements: segment k owns its dynamics rows and the nodal rows at node
+        // k; its columns are those of x_k, u_k, s_k, u_{k+1} with a varying coefficient in
+        // one of its rows (a state that only feeds itself, like a CTCS integral, has none).
+        let mut row_elem = vec![usize::MAX; row];
+        for (k, re) in row_elem.iter_mut().take((nn - 1) * n).enumerate() {
+            *re = k / n;
+        }
+        // Evaluation blocks are numbered (constraint, node) in order: the node of each.
+        let eval_node: Vec<usize> =
+            ocp.nodal.iter().flat_map(|c| c.nodes.iter().copied()).collect();
+        for nr in &nodal_rows {
+            row_elem[nr.row] = eval_node[nr.eval];
+        }
+        for p in &peaks {
+            row_elem[p.row] = p.seg;
+        }
+        let mut elements = Vec::with_capacity(nn);
+        for k in 0..nn {
+            let mut cand: Vec<usize> = (x0 + k * n..x0 + (k + 1) * n)
+                .chain(u0 + k * m..u0 + (k + 1) * m)
+                .chain(std::iter::once(s0 + k))
+                .collect();
+            if k + 1 < nn {
+                cand.extend(u0 + (k + 1) * m..u0 + (k + 2) * m);
+            }
+            let cols: Vec<usize> = cand
+                .into_iter()
+                .filter(|&c| {
+                    settings.quasi_newton
+                        && (a_colptr[c]..a_colptr[c + 1]).any(|p| {
+                            row_elem[a_rowval[p]] == k
+                                && match sources[p] {
+                                    Source::Const(_) => false,
+                                    // A column of A that is only its own diagonal is constant (1).
+                                    Source::A(i) => {
+                                        let (r, j) = ((i % (n * n)) / n, i % n);
+                                        r != j || (0..n).any(|rr| rr != j && tp.contains(rr, j))
+                                    }
+                                    _ => true,
+                                }
+                        })
+                })
+                .collect();
+            elements.push(Element { cols, pidx: Vec::new() });
+        }
+        // P's pattern: every primal diagonal plus each element's upper triangle.
+        let n_primal = vp0;
+        let mut pairs: Vec<(usize, usize)> = (0..n_primal).map(|c| (c, c)).collect();
+        for el in &elements {
+            for (a, &ca) in el.cols.iter().enumerate() {
+                for &cb in &el.cols[a..] {
+                    pairs.push((ca.min(cb), ca.max(cb)));
+                }
+            }
+        }
+        let p_pattern = crate::sparse::CscPattern::from_entries(n_vars, pairs);
+        let find = |r: usize, c: usize| p_pattern.position(r, c);
+        let p_diag: Vec<usize> = (0..n_primal).map(|c| find(c, c)).collect();
+        for el in &mut elements {
+            let d = el.cols.len();
+            el.pidx = vec![usize::MAX; d * d];
+            for a in 0..d {
+                for b in a..d {
+                    let (ca, cb) = (el.cols[a], el.cols[b]);
+                    el.pidx[a * d + b] = find(ca.min(cb), ca.max(cb));
+                }
+            }
+        }
+        let crate::sparse::CscPattern { colptr: p_colptr, rowval: p_rowval } = p_pattern;
+        let dws = ocp.dynamics.workspace();
+        Ptr {
+            ocp,
+            settings,
+            n_vars,
+            a_colptr,
+            a_rowval,
+            sources,
+            b,
+            n_zero,
+            n_nonneg,
+            dws,
+            vb0,
+            nodal_rows,
+            peaks,
+            peak_src,
+            peak_stride,
+            intervals,
+            g_offsets,
+            nodal_blocks,
+            g_len: (gv, gj),
+            buffers,
+            socs,
+            p_colptr,
+            p_rowval,
+            p_diag,
+            elements,
+            row_elem,
+            state: None,
+        }
+    }
+}

@@ -1,0 +1,288 @@
+//! What a solve reports: statuses, per-iteration records, results, violations, timings,
+//! errors and the printed iteration table.
+
+use super::*;
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum PtrStatus {
+    /// Both criteria met.
+    Converged,
+    /// The iteration cap was reached.
+    MaxIterations,
+    /// λ_tr hit its cap without an acceptable step.
+    Stalled,
+    /// Clarabel reported the subproblem infeasible.
+    SubproblemInfeasible,
+    /// Clarabel failed numerically.
+    NumericalFailure,
+}
+
+impl PtrStatus {
+    /// The status as a stable snake-case word (`converged`, `max_iterations`, `stalled`,
+    /// `subproblem_infeasible`, `numerical_failure`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PtrStatus::Converged => "converged",
+            PtrStatus::MaxIterations => "max_iterations",
+            PtrStatus::Stalled => "stalled",
+            PtrStatus::SubproblemInfeasible => "subproblem_infeasible",
+            PtrStatus::NumericalFailure => "numerical_failure",
+        }
+    }
+}
+
+/// One iteration's record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Iteration {
+    /// 1-based iteration number.
+    pub iteration: usize,
+    /// Whether the step was accepted.
+    pub accepted: bool,
+    /// Cost of the candidate (time weight × final time).
+    pub cost: f64,
+    /// ‖Δz‖² of the step (scaled variables).
+    pub j_tr: f64,
+    /// Σ|ν| of the subproblem (virtual control).
+    pub j_vc: f64,
+    /// Σ max(0, ν_b) of the subproblem (virtual buffers of nodal constraints).
+    pub j_vb: f64,
+    /// Largest nonlinear defect of the candidate.
+    pub max_defect: f64,
+    /// Largest nodal-constraint violation of the candidate.
+    pub max_violation: f64,
+    /// Final time of the candidate.
+    pub final_time: f64,
+    /// Actual / predicted merit reduction.
+    pub rho: f64,
+    /// λ_tr used.
+    pub lam_tr: f64,
+    /// How hard the trust region holds the step back: `max_i |2λ_tr·Δz_i/S_i|`, the
+    /// gradient of the trust-region term at the step in scaled variables. The subproblem's
+    /// optimality makes it part of the Lagrangian's gradient at the reference, so it is
+    /// near zero only near a stationary point; a short step with a large value was kept
+    /// short by a heavy λ_tr. The PTR stopping rule does not require it to be small.
+    pub tr_gradient: f64,
+    /// Wall time of the candidate's discretization (ms).
+    pub discretization_ms: f64,
+    /// Wall time of the subproblem: data update (or setup) and solve (ms).
+    pub subproblem_ms: f64,
+    /// Interior-point iterations of the subproblem.
+    pub subproblem_iterations: u32,
+    /// Clarabel's status of the subproblem (`Solved`, `AlmostSolved`, …).
+    pub subproblem_status: &'static str,
+    /// Set on the final iteration: how the solve ended.
+    pub status: Option<PtrStatus>,
+}
+
+/// The outcome: the last accepted trajectory, its violations and the history.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PtrResult {
+    /// How it ended.
+    pub status: PtrStatus,
+    /// States (N×n, row-major).
+    pub x: Vec<f64>,
+    /// Controls (N×m).
+    pub u: Vec<f64>,
+    /// Dilations (N).
+    pub s: Vec<f64>,
+    /// `Δτ·Σ s_k`.
+    pub final_time: f64,
+    /// Per-iteration records.
+    pub history: Vec<Iteration>,
+    /// Largest violation of every constraint at the returned trajectory: the dynamics of
+    /// each state row, then each nodal constraint in definition order.
+    pub violations: Vec<Violation>,
+    /// The largest positive entry of `violations`, if any: what a non-converged solve
+    /// still violates, and where.
+    pub max_violation: Option<Violation>,
+    /// Wall-clock totals.
+    pub timings: Timings,
+}
+
+/// Sizes of the convex subproblem `min ½zᵀPz + qᵀz s.t. Az + s = b, s ∈ K`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct SubproblemDimensions {
+    /// Unknowns (states, controls, dilations, virtual controls and buffers).
+    pub variables: usize,
+    /// Rows of the zero cone (linearized dynamics, boundary conditions).
+    pub equality_rows: usize,
+    /// Rows of the nonnegative cone (bounds, CTCS increments, linearized nodal constraints).
+    pub inequality_rows: usize,
+    /// Number of second-order cones (balls).
+    pub second_order_cones: usize,
+    /// Rows in second-order cones.
+    pub cone_rows: usize,
+    /// Structural nonzeros of `A`.
+    pub nonzeros: usize,
+    /// Structural nonzeros of the upper triangle of `P`: the trust-region diagonal plus,
+    /// with [`PtrSettings::quasi_newton`], the Hessian blocks.
+    pub hessian_nonzeros: usize,
+    /// Nonzeros of the native interior point's reduced KKT matrix (upper triangle) and of
+    /// its LDLᵀ factor (after the fill-reducing ordering): what each of its iterations
+    /// factors. `None` if the pattern cannot be analysed (Clarabel then solves everything).
+    pub reduced_kkt_nonzeros: Option<(usize, usize)>,
+}
+
+/// The reference trajectory of a running solve (borrowed from the solver).
+#[derive(Debug, Clone, Copy)]
+pub struct Trajectory<'a> {
+    /// Number of nodes N.
+    pub nodes: usize,
+    /// States, N×n row-major.
+    pub x: &'a [f64],
+    /// Controls, N×m row-major.
+    pub u: &'a [f64],
+    /// Dilations, N.
+    pub s: &'a [f64],
+    /// Final time `Δτ·Σ_{k<N−1} s_k`.
+    pub final_time: f64,
+}
+
+/// Errors of [`Ptr`]: bad input, never solver outcomes (those are [`PtrStatus`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PtrError {
+    /// An unusable setting.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// A guess of the wrong length.
+    #[error("initial guess `{what}` has {got} entries, expected {expected}")]
+    GuessSize {
+        /// `x`, `u` or `s`.
+        what: &'static str,
+        /// N·n, N·m or N.
+        expected: usize,
+        /// What was given.
+        got: usize,
+    },
+    /// A guess entry that is NaN or infinite.
+    #[error("initial guess `{what}` entry {index} is not finite")]
+    GuessNotFinite {
+        /// `x`, `u` or `s`.
+        what: &'static str,
+        /// Flat index of the entry.
+        index: usize,
+    },
+    /// The dynamics could not be discretized.
+    #[error(transparent)]
+    Discretization(#[from] DiscretizationError),
+    /// No function of the problem reads this parameter.
+    #[error("no function of the problem reads a parameter named `{0}`")]
+    UnknownParameter(String),
+    /// A parameter value the function rejects (wrong length, not finite).
+    #[error("parameter: {0}")]
+    Parameter(armature_symbolic::SymbolicError),
+    /// [`Ocp::interval_bounds`] names a state row the problem does not have.
+    #[error("interval bound on state row {row}, but the problem has {states} state rows")]
+    IntervalBoundRow {
+        /// The row.
+        row: usize,
+        /// The number of state rows.
+        states: usize,
+    },
+    /// A [`NodalConstraint`] the solver cannot use.
+    #[error("nodal constraint `{name}`: {reason}")]
+    NodalConstraint {
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// An [`IntervalConstraint`] the solver cannot use.
+    #[error("interval constraint `{name}`: {reason}")]
+    IntervalConstraint {
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// [`Ptr::step`] before [`Ptr::start`] or after the final iteration.
+    #[error("no solve is running: call start() first (a finished solve takes no more steps)")]
+    NotRunning,
+}
+
+/// The largest violation of one constraint at a trajectory.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Violation {
+    /// The constraint's name (`dynamics of angle[2]`, a nodal constraint's name).
+    pub constraint: String,
+    /// Its largest violation (≥ 0; a dynamics defect in the state's units).
+    pub value: f64,
+    /// The node (for dynamics: the segment's first node) where it is largest.
+    pub node: Option<usize>,
+}
+
+/// Wall-clock totals of a solve (ms).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Timings {
+    /// All discretizations (the guess's and every candidate's).
+    pub discretization_ms: f64,
+    /// All convex subproblems (update or setup, and solve).
+    pub subproblem_ms: f64,
+}
+
+/// The SCvx iteration table (one header, one row per [`Iteration`]), to any writer.
+///
+/// ```
+/// use armature_scvx::IterationTable;
+/// let mut out = Vec::new();
+/// IterationTable::header(&mut out).unwrap();
+/// assert!(String::from_utf8(out).unwrap().contains("J_vc"));
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct IterationTable;
+
+impl IterationTable {
+    /// Writes the column headers.
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn header(w: &mut impl std::io::Write) -> std::io::Result<()> {
+        writeln!(
+            w,
+            "{:>4} {:>3} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
+            "iter",
+            "acc",
+            "disc ms",
+            "solve ms",
+            "cost",
+            "J_tr",
+            "J_vb",
+            "J_vc",
+            "defect",
+            "violation",
+            "TR grad",
+            "λ_tr",
+            "ipm"
+        )
+    }
+
+    /// Writes one iteration's row (and its final status, if any, on the next line).
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn row(w: &mut impl std::io::Write, it: &Iteration) -> std::io::Result<()> {
+        writeln!(
+            w,
+            "{:>4} {:>3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
+            it.iteration,
+            if it.accepted { "yes" } else { "no" },
+            it.discretization_ms,
+            it.subproblem_ms,
+            it.cost,
+            it.j_tr,
+            it.j_vb,
+            it.j_vc,
+            it.max_defect,
+            it.max_violation,
+            it.tr_gradient,
+            it.lam_tr,
+            it.subproblem_iterations,
+            it.subproblem_status
+        )?;
+        if let Some(status) = it.status {
+            writeln!(w, "stopped: {status:?}")?;
+        }
+        Ok(())
+    }
+}

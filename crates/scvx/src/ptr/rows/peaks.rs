@@ -1,0 +1,165 @@
+//! Peak rows (nonnegative cone), one per segment, each with a buffer: the largest value on
+//! the segment's integration grid, refined by a parabola, of
+//! - a state row with interval bounds, against its upper or lower bound:
+//!   `sign·∇x̂_r·Δz − ν_b ≤ bound − sign·x̂_r`;
+//! - an output of an interval constraint `g(x) ≤ 0`:
+//!   `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z·Δz − ν_b ≤ −ĝ_o`, over the columns some state row read
+//!   by `g_o` depends on.
+//!
+//! The coefficients are offsets into a grid block `[x, Φ, B⁻, B⁺]`, filled each iteration.
+
+use armature_symbolic::SparsityPattern;
+
+use super::{IntervalMeta, PeakOf, PeakRow, RowBuilder, Source, VarLayout};
+use crate::{IntervalConstraint, Ocp};
+
+/// The peak rows as placed.
+#[derive(Debug, Default)]
+pub(in crate::ptr) struct PeakPlacement {
+    pub(in crate::ptr) peaks: Vec<PeakRow>,
+    /// Per coefficient: its offset in a grid block.
+    pub(in crate::ptr) src: Vec<usize>,
+    /// Per coefficient of a function row: its column's row stride in a grid block (0 for
+    /// state rows).
+    pub(in crate::ptr) stride: Vec<usize>,
+    pub(in crate::ptr) intervals: Vec<IntervalMeta>,
+    /// The next peak buffer's column.
+    buffer: usize,
+}
+
+/// The segments an interval constraint covers (clamped to the grid; checked in `start`).
+pub(in crate::ptr) fn segments(c: &IntervalConstraint, nn: usize) -> std::ops::Range<usize> {
+    let first = c.first.min(nn - 1);
+    first..c.last.clamp(first, nn - 1)
+}
+
+/// Offsets of `Φ`, `B⁻` and `B⁺` in a grid block.
+fn block_offsets(v: &VarLayout) -> (usize, usize, usize) {
+    let n = v.n;
+    (n, n + n * n, n + n * n + n * v.mc)
+}
+
+impl PeakPlacement {
+    /// The coefficients of a peak row on segment `k` over the columns `reads` selects, with
+    /// `off(block, index)` the grid offset and `stride` its column stride.
+    fn coefficients(
+        &mut self,
+        v: &VarLayout,
+        k: usize,
+        reads: impl Fn(usize) -> bool,
+        off: impl Fn(usize, usize) -> usize,
+        stride: Option<(usize, usize)>,
+        rb: &mut RowBuilder,
+    ) {
+        let (phi0, bm0, bp0) = block_offsets(v);
+        let mut push = |col: usize, offset: usize, s: usize, rb: &mut RowBuilder| {
+            rb.entry(col, Source::Peak(self.src.len()));
+            self.src.push(offset);
+            if stride.is_some() {
+                self.stride.push(s);
+            }
+        };
+        let (sx, su) = stride.unwrap_or((0, 0));
+        for j in (0..v.n).filter(|&j| reads(j)) {
+            push(v.x(k, j), phi0 + off(0, j), sx, rb);
+        }
+        for i in (0..v.m).filter(|&i| reads(v.n + i)) {
+            push(v.u(k, i), bm0 + off(1, i), su, rb);
+            push(v.u(k + 1, i), bp0 + off(1, i), su, rb);
+        }
+        push(v.s(k), bm0 + off(1, v.m), su, rb);
+    }
+
+    /// Ends a peak row of `of` on segment `seg` whose coefficients start at `start`.
+    fn finish_row(
+        &mut self,
+        seg: usize,
+        of: PeakOf,
+        sign: f64,
+        bound: f64,
+        start: usize,
+        rb: &mut RowBuilder,
+    ) {
+        rb.entry(self.buffer, Source::Const(-1.0));
+        self.peaks.push(PeakRow { seg, of, sign, bound, row: rb.row, src: start..self.src.len() });
+        rb.end_row(0.0);
+        self.buffer += 1;
+    }
+}
+
+/// Appends the state rows' peak rows (segment-major), their buffers from column `buffer`.
+pub(in crate::ptr) fn push_state_peaks(
+    v: &VarLayout,
+    ocp: &Ocp,
+    tp: &SparsityPattern,
+    rows: &[usize],
+    buffer: usize,
+    rb: &mut RowBuilder,
+) -> PeakPlacement {
+    let mut placed = PeakPlacement { buffer, ..PeakPlacement::default() };
+    for k in 0..v.nn - 1 {
+        for &r in rows {
+            for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
+                if !bound.is_finite() {
+                    continue;
+                }
+                let start = placed.src.len();
+                let off =
+                    |block: usize, i: usize| if block == 0 { r * v.n + i } else { r * v.mc + i };
+                placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
+                placed.finish_row(k, PeakOf::State(r), sign, bound, start, rb);
+            }
+        }
+    }
+    placed.stride = vec![0; placed.src.len()];
+    placed
+}
+
+/// Appends the interval constraints' peak rows (constraint, segment, output) with their
+/// grid bookkeeping; `pts` is the number of grid points per segment.
+pub(in crate::ptr) fn push_function_peaks(
+    v: &VarLayout,
+    ocp: &Ocp,
+    tp: &SparsityPattern,
+    pts: usize,
+    placed: &mut PeakPlacement,
+    rb: &mut RowBuilder,
+) {
+    let (mut val0, mut jac0, mut pt0) = (0, 0, 0);
+    for (ci, c) in ocp.interval_constraints.iter().enumerate() {
+        let jp = c.function.jacobian_pattern();
+        let (nout, nnz) = (c.function.n_outputs(), jp.nnz());
+        let mut deps = vec![Vec::new(); nout];
+        for col in 0..jp.ncols().min(v.n) {
+            for q in jp.col_ptr()[col]..jp.col_ptr()[col + 1] {
+                deps[jp.row_idx()[q]].push((col, q));
+            }
+        }
+        let segs = segments(c, v.nn);
+        for k in segs.clone() {
+            for (out, dep) in deps.iter().enumerate() {
+                let start = placed.src.len();
+                let reads = |col: usize| dep.iter().any(|&(r, _)| tp.contains(r, col));
+                let stride = Some((v.n, v.mc));
+                placed.coefficients(v, k, reads, |_, i| i, stride, rb);
+                placed.finish_row(k, PeakOf::Function { c: ci, out }, 1.0, 0.0, start, rb);
+            }
+        }
+        placed.intervals.push(IntervalMeta {
+            first: segs.start,
+            last: segs.end,
+            nout,
+            nnz,
+            val0,
+            jac0,
+            pt0,
+            points: segs.len() * pts,
+            activation: c.activation.unwrap_or(f64::INFINITY),
+            seg0: pt0 / pts,
+            deps,
+        });
+        pt0 += segs.len() * pts;
+        val0 += segs.len() * pts * nout;
+        jac0 += segs.len() * pts * nnz;
+    }
+}

@@ -1,0 +1,190 @@
+//! Driving a solve: start from a guess, step, observe, and collect the result.
+
+use super::*;
+
+impl Ptr {
+    /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N) to the end: [`start`](Self::start),
+    /// then [`step`](Self::step) until a step reports a final status.
+    ///
+    /// # Errors
+    /// Unusable settings, guesses of the wrong size or not finite, a dynamics evaluation
+    /// error. Solver outcomes (not converged, infeasible subproblem) are data in the result.
+    pub fn solve(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<PtrResult, PtrError> {
+        self.solve_with(x, u, s, |_, _| {})
+    }
+
+    /// Like [`solve`](Self::solve), calling `observer` after every iteration with its record
+    /// and the current reference trajectory (the last accepted one): the hook through which
+    /// progress is printed ([`IterationTable`]) or streamed.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_with(
+        &mut self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+        mut observer: impl FnMut(&Iteration, &Trajectory<'_>),
+    ) -> Result<PtrResult, PtrError> {
+        self.start(x, u, s)?;
+        loop {
+            let it = self.step()?;
+            if let Some(t) = self.trajectory() {
+                observer(&it, &t);
+            }
+            if it.status.is_some() {
+                break;
+            }
+        }
+        self.result().ok_or(PtrError::NotRunning)
+    }
+
+    /// Sets the reference to the guess `(x, u, s)` (N×n, N×m, N), discretizes it and resets
+    /// the weights and the history; [`step`](Self::step) then iterates. Reuses every buffer
+    /// (and the subproblem solver) of an earlier solve of this `Ptr`.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
+        self.settings.validate()?;
+        let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        if let Some(&row) = self.ocp.interval_bounds.iter().find(|&&r| r >= n) {
+            return Err(PtrError::IntervalBoundRow { row, states: n });
+        }
+        for c in &self.ocp.nodal {
+            let bad = |reason| Err(PtrError::NodalConstraint { name: c.name.clone(), reason });
+            let names = c.output_names.len();
+            if names > 0 && matches!(c.kind, NodalKind::Ball { .. }) {
+                return bad("a ball constraint is one constraint: its entries take no names");
+            }
+            if names > 0 && names != c.function.n_outputs() {
+                return bad("output_names must name every entry of g, or none");
+            }
+        }
+        for c in &self.ocp.interval_constraints {
+            let bad = |reason| Err(PtrError::IntervalConstraint { name: c.name.clone(), reason });
+            if !(c.first < c.last && c.last < nn) {
+                return bad("its segments first..last must satisfy first < last ≤ N − 1");
+            }
+            if c.function.n_inputs() != n + m {
+                return bad("it must be compiled against the groups [states], [controls]");
+            }
+            if c.reads_controls(n) {
+                return bad(
+                    "it reads the controls; an interval constraint may read the states only",
+                );
+            }
+            if c.activation.is_some_and(|a| a.is_nan() || a <= 0.0) {
+                return bad("its activation distance must be positive (or None)");
+            }
+        }
+        for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
+            if v.len() != len {
+                return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
+            }
+            if let Some(index) = v.iter().position(|v| !v.is_finite()) {
+                return Err(PtrError::GuessNotFinite { what, index });
+            }
+        }
+        let mut st = match self.state.take() {
+            Some(st) => st,
+            None => Box::new(self.iterate()),
+        };
+        st.xb.copy_from_slice(x);
+        st.ub.copy_from_slice(u);
+        st.sb.copy_from_slice(s);
+        let t0 = Instant::now();
+        let disc = self.ocp.dynamics.discretize(
+            x,
+            u,
+            s,
+            &self.settings.discretization,
+            &mut self.dws,
+            &mut st.dbar,
+        );
+        st.timings =
+            Timings { discretization_ms: t0.elapsed().as_secs_f64() * 1e3, ..Timings::default() };
+        disc?;
+        st.lam_vc.fill(self.settings.lam_vc);
+        st.lam_vb.fill(self.settings.lam_vb);
+        st.lam_tr = self.settings.lam_tr;
+        // A new solve does not warm-start from the last one's subproblem.
+        if let Some(ipm) = st.ipm.as_mut() {
+            ipm.reset();
+        }
+        st.hess_ready.fill(false);
+        st.scale_objective = false;
+        st.linearized = false;
+        st.history.clear();
+        st.history.reserve(self.settings.max_iterations);
+        st.status = None;
+        st.ev.fgrid_reference = false;
+        let prices = (&st.lam_vc[..], &st.lam_vb[..]);
+        (st.jbar, st.tf, _, _) =
+            self.merit(x, u, s, &st.dbar, &mut st.ev, prices, GridAt::Reference);
+        self.state = Some(st);
+        Ok(())
+    }
+
+    /// One PTR iteration: linearize at the reference, solve the convex subproblem, accept or
+    /// reject the candidate, update the weights. The record's `status` is set on the final
+    /// iteration (converged, iteration cap, stalled, subproblem infeasible or failed).
+    ///
+    /// # Errors
+    /// [`PtrError::NotRunning`] before [`start`](Self::start) or after a final iteration; a
+    /// dynamics evaluation error.
+    pub fn step(&mut self) -> Result<Iteration, PtrError> {
+        let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
+        let out =
+            if st.status.is_some() { Err(PtrError::NotRunning) } else { self.step_in(&mut st) };
+        self.state = Some(st);
+        out
+    }
+
+    /// The current reference trajectory (the last accepted one), once started.
+    pub fn trajectory(&self) -> Option<Trajectory<'_>> {
+        self.state.as_ref().map(|st| Trajectory {
+            nodes: self.ocp.nodes,
+            x: &st.xb,
+            u: &st.ub,
+            s: &st.sb,
+            final_time: st.tf,
+        })
+    }
+
+    /// The result so far: the reference trajectory, its constraint violations, the history
+    /// and the status (`MaxIterations` while still running).
+    pub fn result(&mut self) -> Option<PtrResult> {
+        let mut st = self.state.take()?;
+        let violations = self.violations(&mut st);
+        let max_violation = violations
+            .iter()
+            .filter(|v| v.value > 0.0)
+            .max_by(|a, b| a.value.total_cmp(&b.value))
+            .cloned();
+        let r = PtrResult {
+            status: st.status.unwrap_or(PtrStatus::MaxIterations),
+            x: st.xb.clone(),
+            u: st.ub.clone(),
+            s: st.sb.clone(),
+            final_time: st.tf,
+            history: st.history.clone(),
+            violations,
+            max_violation,
+            timings: st.timings,
+        };
+        self.state = Some(st);
+        Some(r)
+    }
+
+    /// An empty discretization for this problem (with the integration grid when it has
+    /// interval bounds).
+    pub(super) fn output(&self) -> Discretization {
+        let nn = self.ocp.nodes;
+        if self.peaks.is_empty() {
+            self.ocp.dynamics.output(nn)
+        } else {
+            self.ocp.dynamics.output_with_grid(nn, self.settings.discretization.substeps)
+        }
+    }
+}

@@ -1,0 +1,252 @@
+//! Unit tests of the PTR internals.
+
+use super::merit::lagrangian_shift;
+use super::quasi_newton::damped_bfgs;
+use crate::Dynamics;
+use armature_symbolic::{Expr, Function};
+use proptest::prelude::*;
+
+/// A double integrator p' = v, v' = a (|a| ≤ 1, |p| ≤ 10, |v| ≤ `v_max`) from rest at 0
+/// to `x_final` on `nodes` nodes, in minimum time, with an interval constraint `g(p, v)`
+/// on every segment and interval bounds on the listed state rows.
+fn double_integrator(
+    nodes: usize,
+    v_max: f64,
+    x_final: [Option<f64>; 2],
+    g: impl FnOnce(&Expr, &Expr) -> Expr,
+    interval_bounds: Vec<usize>,
+) -> super::Ocp {
+    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    let function =
+        Function::compile(&[g(&p, &v)], &[&[p.clone(), v.clone()], &[a.clone()]]).unwrap();
+    let dynamics = Dynamics::new(&[p, v.clone()], &[a.clone()], &[v, a], &[true]).unwrap();
+    super::Ocp {
+        dynamics,
+        nodes,
+        x_min: vec![-10.0, -v_max],
+        x_max: vec![10.0, v_max],
+        u_min: vec![-1.0],
+        u_max: vec![1.0],
+        x_initial: vec![Some(0.0), Some(0.0)],
+        x_final: x_final.to_vec(),
+        s_min: 0.1,
+        s_max: 10.0,
+        final_time: (0.0, f64::INFINITY),
+        time_weight: 1.0,
+        final_cost: vec![],
+        increments: vec![],
+        nodal: vec![],
+        interval_bounds,
+        interval_constraints: vec![super::IntervalConstraint {
+            name: "g".into(),
+            function,
+            first: 0,
+            last: nodes - 1,
+            activation: None,
+        }],
+    }
+}
+
+/// The interval values kept for the reference (`NodalEval::fgrid_reference`) are, bit
+/// for bit, what evaluating them at the reference gives: after every step of a solve of
+/// a double integrator with a nonlinear interval constraint, accepted or rejected.
+#[test]
+fn interval_values_kept_for_the_reference_are_its_own() {
+    use super::{GridAt, Ptr, PtrSettings};
+    // v² + 0.3·sin(p) ≤ 0.25 between the nodes of every segment, 0 → 1 m at rest.
+    let nodes = 11;
+    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
+    let ocp = double_integrator(nodes, 10.0, [Some(1.0), Some(0.0)], g, vec![]);
+    let mut ptr = Ptr::new(ocp, PtrSettings { max_iterations: 40, ..PtrSettings::default() });
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    ptr.start(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
+    let (mut kept, mut rejected) = (0, 0);
+    loop {
+        let it = ptr.step().unwrap();
+        rejected += usize::from(!it.accepted);
+        let st = ptr.state.as_ref().unwrap();
+        if st.ev.fgrid_reference {
+            let mut fresh = ptr.iterate().ev;
+            ptr.eval_interval(&st.dbar, &mut fresh, GridAt::Other);
+            assert_eq!(st.ev.fgrid, fresh.fgrid, "iteration {}", it.iteration);
+            kept += 1;
+        }
+        if it.status.is_some() {
+            break;
+        }
+    }
+    // Both paths: accepted steps hand their values on, rejected ones must not.
+    assert!(kept > 3 && rejected > 0, "kept at {kept} references, {rejected} rejections");
+}
+
+/// The interval rows' coefficients are the derivatives of their peaks: central
+/// differences of the peak value in every column of the row (the envelope theorem holds
+/// the vertex's weights), on a double integrator whose velocity peaks inside segments —
+/// for the velocity's bounds and for a nonlinear interval constraint of both states.
+#[test]
+fn peak_row_coefficients_are_derivatives_of_the_peak() {
+    use super::{PeakOf, Ptr, PtrSettings, Source};
+    use crate::DiscretizationSettings;
+    // g = [v² + 0.3·p − 0.2, −v·(1 + sin²p)] ≤ 0 on segments 0..3.
+    let g = |p: &Expr, v: &Expr| {
+        Expr::concat(&[&(v * v) + &(p * 0.3) - 0.2, -(v * &(&(&p.sin() * &p.sin()) + 1.0))])
+    };
+    let ocp = double_integrator(4, 0.5, [None, None], g, vec![1]);
+    let ptr = Ptr::new(ocp, PtrSettings::default());
+    let settings = DiscretizationSettings::default();
+    // z = [x (4×2) | u (4) | s (4)]: alternating accelerations make the velocity peak
+    // (up) or dip (down) inside every segment.
+    let mut z = vec![0.0, 0.2, 0.3, 0.1, 0.5, -0.3, 0.6, 0.2];
+    z.extend([1.0, -0.6, 0.8, -0.9]);
+    z.extend([1.2, 0.9, 1.5, 1.5]);
+    let disc = |z: &[f64]| {
+        let mut ws = ptr.ocp.dynamics.workspace();
+        let mut d = ptr.output();
+        ptr.ocp
+            .dynamics
+            .discretize(&z[..8], &z[8..12], &z[12..], &settings, &mut ws, &mut d)
+            .unwrap();
+        d
+    };
+    let peak = |z: &[f64], pk| {
+        let d = disc(z);
+        let mut ev = ptr.iterate().ev;
+        ptr.eval_interval(&d, &mut ev, super::GridAt::Other);
+        ptr.peak(&d, &ev, pk)
+    };
+    let d = disc(&z);
+    let mut ev = ptr.iterate().ev;
+    ptr.fill_peaks(&d, &mut ev, super::GridAt::Other);
+    let h = 1e-6;
+    let (mut checked, mut checked_g) = (0, 0);
+    assert_eq!(ptr.peaks.len(), 3 * 2 + 3 * 2, "±v and g's 2 outputs on 3 segments");
+    for pk in &ptr.peaks {
+        let (_, _, w) = peak(&z, pk);
+        let interior = w.iter().filter(|&&w| w != 0.0).count() == 3;
+        for q in pk.src.clone() {
+            let col = (0..12 + 4)
+                .find(|&c| {
+                    (ptr.a_colptr[c]..ptr.a_colptr[c + 1])
+                        .any(|i| matches!(ptr.sources[i], Source::Peak(k) if k == q))
+                })
+                .unwrap();
+            let (mut zp, mut zm) = (z.clone(), z.clone());
+            zp[col] += h;
+            zm[col] -= h;
+            let fd = (peak(&zp, pk).0 - peak(&zm, pk).0) / (2.0 * h);
+            let an = ev.peak_vals[q];
+            assert!(
+                (fd - an).abs() < 1e-6 * (1.0 + an.abs()),
+                "segment {} {:?} sign {} w {w:?} col {col}: {an} vs {fd}",
+                pk.seg,
+                pk.of,
+                pk.sign
+            );
+            if matches!(pk.of, PeakOf::Function { .. }) {
+                checked_g += usize::from(interior);
+            } else {
+                checked += usize::from(interior);
+            }
+        }
+    }
+    assert!(checked >= 8, "{checked} coefficients of refined (interior) peaks checked");
+    assert!(checked_g >= 8, "{checked_g} coefficients of refined function peaks checked");
+}
+
+/// `h` (d×d) times `v`.
+fn mul(h: &[f64], v: &[f64]) -> Vec<f64> {
+    let d = v.len();
+    (0..d).map(|a| (0..d).map(|b| h[a * d + b] * v[b]).sum()).collect()
+}
+
+/// Positive definite by Cholesky.
+fn positive_definite(h: &[f64], d: usize) -> bool {
+    let mut l = vec![0.0; d * d];
+    for i in 0..d {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i * d + k] * l[j * d + k]).sum();
+            if i == j {
+                let v = h[i * d + i] - s;
+                if v <= 0.0 {
+                    return false;
+                }
+                l[i * d + i] = v.sqrt();
+            } else {
+                l[i * d + j] = (h[i * d + j] - s) / l[j * d + j];
+            }
+        }
+    }
+    true
+}
+
+proptest! {
+    /// Each row's Lagrangian-merit term `λ|d| + shift` lies in `[0, 2σλ|d|]` whatever the
+    /// dual (a dual beyond σλ is clipped), and where `|y| ≤ σλ` the shift is the unclipped
+    /// `(σ − 1)λ|d| − y·d`.
+    #[test]
+    fn the_lagrangian_merit_prices_every_defect_nonnegatively(
+        rows in prop::collection::vec((-1.0f64..1.0, -5.0f64..5.0, 0.1f64..4.0), 1..12),
+        sigma in 0.0f64..=1.0,
+    ) {
+        for &(d, y, lam) in &rows {
+            let shift = lagrangian_shift(&[d], &[y], &[lam], sigma);
+            let term = lam * d.abs() + shift;
+            let tol = 1e-12 * (1.0 + lam * d.abs());
+            prop_assert!(term >= -tol && term <= 2.0 * sigma * lam * d.abs() + tol, "{term}");
+            if y.abs() <= sigma * lam {
+                let raw = (sigma - 1.0) * lam * d.abs() - y * d;
+                prop_assert!((shift - raw).abs() <= tol);
+            }
+        }
+        // Rows cycle through the per-state prices.
+        let (d, y): (Vec<f64>, Vec<f64>) = rows.iter().map(|r| (r.0, r.1)).unzip();
+        let lam: Vec<f64> = rows.iter().map(|r| r.2).collect();
+        let twice: Vec<f64> = d.iter().chain(&d).copied().collect();
+        let yy: Vec<f64> = y.iter().chain(&y).copied().collect();
+        let one = lagrangian_shift(&d, &y, &lam, sigma);
+        prop_assert!((lagrangian_shift(&twice, &yy, &lam, sigma) - 2.0 * one).abs() <= 1e-9);
+    }
+
+    /// Undamped (positive curvature) the update satisfies the secant equation H⁺s = y;
+    /// with any pair it stays symmetric positive definite.
+    #[test]
+    fn damped_bfgs_keeps_the_secant_equation_and_positive_definiteness(
+        diag in prop::collection::vec(0.1f64..10.0, 4),
+        s in prop::collection::vec(-1.0f64..1.0, 4),
+        y in prop::collection::vec(-1.0f64..1.0, 4),
+    ) {
+        let d = 4;
+        prop_assume!(s.iter().map(|v| v * v).sum::<f64>() > 1e-3);
+        let mut h = vec![0.0; d * d];
+        for (a, v) in diag.iter().enumerate() {
+            h[a * d + a] = *v;
+        }
+        let hs0 = mul(&h, &s);
+        let shs: f64 = s.iter().zip(&hs0).map(|(a, b)| a * b).sum();
+        let sy: f64 = s.iter().zip(&y).map(|(a, b)| a * b).sum();
+        let (mut hs, mut r) = (vec![0.0; d], vec![0.0; d]);
+        prop_assert!(damped_bfgs(&mut h, &s, &y, &mut hs, &mut r));
+        for a in 0..d {
+            for b in 0..d {
+                prop_assert!((h[a * d + b] - h[b * d + a]).abs() < 1e-9);
+            }
+        }
+        prop_assert!(positive_definite(&h, d), "{h:?}");
+        // H⁺s = r always; r = y when sᵀy ≥ 0.2·sᵀHs.
+        let hs1 = mul(&h, &s);
+        for a in 0..d {
+            prop_assert!((hs1[a] - r[a]).abs() < 1e-8 * (1.0 + r[a].abs()));
+            if sy >= 0.2 * shs {
+                prop_assert!((hs1[a] - y[a]).abs() < 1e-8 * (1.0 + y[a].abs()));
+            }
+        }
+    }
+}
+
+#[test]
+fn damped_bfgs_refuses_a_zero_step() {
+    let mut h = vec![1.0, 0.0, 0.0, 1.0];
+    let (mut hs, mut r) = (vec![0.0; 2], vec![0.0; 2]);
+    assert!(!damped_bfgs(&mut h, &[0.0, 0.0], &[1.0, 1.0], &mut hs, &mut r));
+    assert_eq!(h, vec![1.0, 0.0, 0.0, 1.0]);
+}
