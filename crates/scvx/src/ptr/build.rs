@@ -61,92 +61,25 @@ impl Ptr {
         rows::bounds::push_nonnegative(&v, n_vars, &mut rb);
         let n_nonneg = rb.row - n_zero;
         let socs = rows::nodal::push_balls(&v, &ocp, &g_offsets, &mut nodal, &mut rb);
-        let RowBuilder { mut trip, b, row } = rb;
-        let (x0, u0, s0, vp0, vb0) = (v.x0, v.u0, v.s0, v.vp0, v.vb0);
+        let RowBuilder { trip, b, row } = rb;
+        let (vp0, vb0) = (v.vp0, v.vb0);
         let nodal_rows = nodal.rows;
         let buffers = nodal.buffers;
         let rows::peaks::PeakPlacement {
             peaks, src: peak_src, stride: peak_stride, intervals, ..
         } = peaks;
-        trip.sort_by_key(|t| (t.1, t.0));
-        let mut a_colptr = vec![0; n_vars + 1];
-        for t in &trip {
-            a_colptr[t.1 + 1] += 1;
-        }
-        for c in 0..n_vars {
-            a_colptr[c + 1] += a_colptr[c];
-        }
-        let a_rowval: Vec<usize> = trip.iter().map(|t| t.0).collect();
-        let sources: Vec<Source> = trip.iter().map(|t| t.2).collect();
-        // Quasi-Newton elements: segment k owns its dynamics rows and the nodal rows at node
-        // k; its columns are those of x_k, u_k, s_k, u_{k+1} with a varying coefficient in
-        // one of its rows (a state that only feeds itself, like a CTCS integral, has none).
-        let mut row_elem = vec![usize::MAX; row];
-        for (k, re) in row_elem.iter_mut().take((nn - 1) * n).enumerate() {
-            *re = k / n;
-        }
+        let (a_colptr, a_rowval, sources) = compress(trip, n_vars);
         // Evaluation blocks are numbered (constraint, node) in order: the node of each.
         let eval_node: Vec<usize> =
             ocp.nodal.iter().flat_map(|c| c.nodes.iter().copied()).collect();
-        for nr in &nodal_rows {
-            row_elem[nr.row] = eval_node[nr.eval];
-        }
-        for p in &peaks {
-            row_elem[p.row] = p.seg;
-        }
-        let mut elements = Vec::with_capacity(nn);
-        for k in 0..nn {
-            let mut cand: Vec<usize> = (x0 + k * n..x0 + (k + 1) * n)
-                .chain(u0 + k * m..u0 + (k + 1) * m)
-                .chain(std::iter::once(s0 + k))
-                .collect();
-            if k + 1 < nn {
-                cand.extend(u0 + (k + 1) * m..u0 + (k + 2) * m);
-            }
-            let cols: Vec<usize> = cand
-                .into_iter()
-                .filter(|&c| {
-                    settings.quasi_newton
-                        && (a_colptr[c]..a_colptr[c + 1]).any(|p| {
-                            row_elem[a_rowval[p]] == k
-                                && match sources[p] {
-                                    Source::Const(_) => false,
-                                    // A column of A that is only its own diagonal is constant (1).
-                                    Source::A(i) => {
-                                        let (r, j) = ((i % (n * n)) / n, i % n);
-                                        r != j || (0..n).any(|rr| rr != j && tp.contains(rr, j))
-                                    }
-                                    _ => true,
-                                }
-                        })
-                })
-                .collect();
-            elements.push(Element { cols, pidx: Vec::new() });
-        }
-        // P's pattern: every primal diagonal plus each element's upper triangle.
-        let n_primal = vp0;
-        let mut pairs: Vec<(usize, usize)> = (0..n_primal).map(|c| (c, c)).collect();
-        for el in &elements {
-            for (a, &ca) in el.cols.iter().enumerate() {
-                for &cb in &el.cols[a..] {
-                    pairs.push((ca.min(cb), ca.max(cb)));
-                }
-            }
-        }
-        let p_pattern = crate::sparse::CscPattern::from_entries(n_vars, pairs);
-        let find = |r: usize, c: usize| p_pattern.position(r, c);
-        let p_diag: Vec<usize> = (0..n_primal).map(|c| find(c, c)).collect();
-        for el in &mut elements {
-            let d = el.cols.len();
-            el.pidx = vec![usize::MAX; d * d];
-            for a in 0..d {
-                for b in a..d {
-                    let (ca, cb) = (el.cols[a], el.cols[b]);
-                    el.pidx[a * d + b] = find(ca.min(cb), ca.max(cb));
-                }
-            }
-        }
-        let crate::sparse::CscPattern { colptr: p_colptr, rowval: p_rowval } = p_pattern;
+        let row_elem = row_elements(&v, row, &nodal_rows, &eval_node, &peaks);
+        let a = (&a_colptr[..], &a_rowval[..], &sources[..]);
+        let mut elements = if settings.quasi_newton {
+            qn_elements(&v, tp, a, &row_elem)
+        } else {
+            vec![Element { cols: Vec::new(), pidx: Vec::new() }; nn]
+        };
+        let (p_colptr, p_rowval, p_diag) = p_pattern(vp0, n_vars, &mut elements);
         let dws = ocp.dynamics.workspace();
         Ptr {
             ocp,
@@ -178,4 +111,115 @@ impl Ptr {
             state: None,
         }
     }
+}
+
+/// `A`'s triplets as compressed columns (rows in insertion order within a column): column
+/// pointers, row indices and value sources.
+fn compress(
+    mut trip: Vec<(usize, usize, Source)>,
+    n_vars: usize,
+) -> (Vec<usize>, Vec<usize>, Vec<Source>) {
+    trip.sort_by_key(|t| (t.1, t.0));
+    let mut colptr = vec![0; n_vars + 1];
+    for t in &trip {
+        colptr[t.1 + 1] += 1;
+    }
+    for c in 0..n_vars {
+        colptr[c + 1] += colptr[c];
+    }
+    (colptr, trip.iter().map(|t| t.0).collect(), trip.iter().map(|t| t.2).collect())
+}
+
+/// The quasi-Newton element of each of the `rows` subproblem rows: segment k owns its
+/// dynamics rows, the nodal rows at node k and its peak rows (`usize::MAX`: none).
+fn row_elements(
+    v: &VarLayout,
+    rows: usize,
+    nodal_rows: &[NodalRow],
+    eval_node: &[usize],
+    peaks: &[PeakRow],
+) -> Vec<usize> {
+    let mut row_elem = vec![usize::MAX; rows];
+    for (k, re) in row_elem.iter_mut().take((v.nn - 1) * v.n).enumerate() {
+        *re = k / v.n;
+    }
+    for nr in nodal_rows {
+        row_elem[nr.row] = eval_node[nr.eval];
+    }
+    for p in peaks {
+        row_elem[p.row] = p.seg;
+    }
+    row_elem
+}
+
+/// Quasi-Newton elements: segment k's columns are those of x_k, u_k, s_k, u_{k+1} with a
+/// varying coefficient in one of its rows (a state that only feeds itself, like a CTCS
+/// integral, has none). `a` is `A`'s pattern with its value sources.
+fn qn_elements(
+    v: &VarLayout,
+    tp: &armature_symbolic::SparsityPattern,
+    (a_colptr, a_rowval, sources): (&[usize], &[usize], &[Source]),
+    row_elem: &[usize],
+) -> Vec<Element> {
+    let (n, m, nn) = (v.n, v.m, v.nn);
+    let varying = |k: usize, c: usize| {
+        (a_colptr[c]..a_colptr[c + 1]).any(|p| {
+            row_elem[a_rowval[p]] == k
+                && match sources[p] {
+                    Source::Const(_) => false,
+                    // A column of A that is only its own diagonal is constant (1).
+                    Source::A(i) => {
+                        let (r, j) = ((i % (n * n)) / n, i % n);
+                        r != j || (0..n).any(|rr| rr != j && tp.contains(rr, j))
+                    }
+                    _ => true,
+                }
+        })
+    };
+    (0..nn)
+        .map(|k| {
+            let mut cand: Vec<usize> = (v.x(k, 0)..v.x(k + 1, 0))
+                .chain(v.u(k, 0)..v.u(k + 1, 0))
+                .chain(std::iter::once(v.s(k)))
+                .collect();
+            if k + 1 < nn {
+                cand.extend(v.u(k + 1, 0)..v.u(k + 1, 0) + m);
+            }
+            let cols = cand.into_iter().filter(|&c| varying(k, c)).collect();
+            Element { cols, pidx: Vec::new() }
+        })
+        .collect()
+}
+
+/// `P`'s upper-triangular pattern: every primal diagonal (columns `0..n_primal`) plus each
+/// element's upper triangle; fills each element's `pidx`. Column pointers, row indices and
+/// the diagonal's positions.
+fn p_pattern(
+    n_primal: usize,
+    n_vars: usize,
+    elements: &mut [Element],
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let mut pairs: Vec<(usize, usize)> = (0..n_primal).map(|c| (c, c)).collect();
+    for el in elements.iter() {
+        for (a, &ca) in el.cols.iter().enumerate() {
+            for &cb in &el.cols[a..] {
+                pairs.push((ca.min(cb), ca.max(cb)));
+            }
+        }
+    }
+    let pattern = crate::sparse::CscPattern::from_entries(n_vars, pairs);
+    let find = |r: usize, c: usize| pattern.position(r, c);
+    let diag: Vec<usize> = (0..n_primal).map(|c| find(c, c)).collect();
+    for el in elements.iter_mut() {
+        let d = el.cols.len();
+        el.pidx = vec![usize::MAX; d * d];
+        for a in 0..d {
+            for b in a..d {
+                let (ca, cb) = (el.cols[a], el.cols[b]);
+                el.pidx[a * d + b] = find(ca.min(cb), ca.max(cb));
+            }
+        }
+    }
+    let crate::sparse::CscPattern { colptr, rowval } = pattern;
+    (colptr, rowval, diag)
 }

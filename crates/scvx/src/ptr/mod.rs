@@ -224,6 +224,7 @@ impl Ptr {
     }
 }
 
+mod acceptance;
 mod build;
 mod evaluate;
 mod iterate;
