@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use armature_bridge::{
     BridgeError, BridgeSettings, Progress, Status, TrajectoryMeta, TrajectoryPublisher,
 };
-use armature_scvx::Iteration;
+use armature_scvx::{Iteration, PtrStatus};
 
 /// A publisher plus the names of the table columns that make each block.
 #[derive(Debug)]
@@ -17,6 +17,17 @@ pub struct Streamer {
 }
 
 type Tables = BTreeMap<String, Vec<Vec<f64>>>;
+
+/// The wire status of a solve that ended with `s`.
+pub fn wire_status(s: PtrStatus) -> Status {
+    match s {
+        PtrStatus::Converged => Status::Converged,
+        PtrStatus::MaxIterations => Status::MaxIterations,
+        PtrStatus::Stalled => Status::Stalled,
+        PtrStatus::SubproblemInfeasible => Status::SubproblemInfeasible,
+        PtrStatus::NumericalFailure => Status::NumericalFailure,
+    }
+}
 
 impl Streamer {
     /// A streamer for run `run`; `keypoints` are the chain's keypoint names.
@@ -76,9 +87,7 @@ impl Streamer {
     /// # Errors
     /// The bridge's.
     pub fn progress(&mut self, it: &Iteration) -> Result<u64, BridgeError> {
-        let status = it
-            .status
-            .map_or(Status::Running, |s| Status::from_word(s.as_str()).unwrap_or(Status::Running));
+        let status = it.status.map_or(Status::Running, wire_status);
         self.publisher.publish_progress(Progress {
             status: status.code(),
             iteration: it.iteration as u64,

@@ -21,5 +21,6 @@ pub use problem::{
 pub use ptr::{
     IntervalConstraint, Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
     PtrError, PtrResult, PtrSettings, PtrStatus, SettingsError, SubproblemDimensions,
-    SubproblemSettings, SubproblemSolver, Timings, Trajectory, TrustRegionUpdate, Violation,
+    SubproblemSettings, SubproblemSolver, SubproblemStatus, Timings, Trajectory, TrustRegionUpdate,
+    Violation,
 };

@@ -39,7 +39,7 @@
 //! };
 //! let mut compiled = problem.compile(settings).unwrap();
 //! let solution = compiled.solve().unwrap();
-//! assert_eq!(solution.status, "converged");
+//! assert_eq!(solution.status, armature_scvx::PtrStatus::Converged);
 //! assert!((solution.final_time - 2.0).abs() < 0.02); // bang–bang: 2 s
 //! // The dense single-shooting trajectory ends where the nodes do (to the defect tolerance).
 //! assert!((solution.trajectory["p"].last().unwrap()[0] - 1.0).abs() < 1e-5);
@@ -54,8 +54,8 @@ use serde::Serialize;
 
 use crate::{
     CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration, NodalConstraint,
-    NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, Trajectory, Violation,
-    ctcs_states,
+    NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, Trajectory,
+    Violation, ctcs_states,
 };
 
 /// Largest node count a [`Problem`] accepts (the subproblem grows linearly with it; this
@@ -307,7 +307,7 @@ pub struct Ball {
 ///     ..Problem::new(6)
 /// };
 /// let solution = problem.compile(PtrSettings::default()).unwrap().solve().unwrap();
-/// assert_eq!(solution.status, "converged");
+/// assert_eq!(solution.status, armature_scvx::PtrStatus::Converged);
 /// // No sample of the dense trajectory lies inside the disc.
 /// let inside = |q: &Vec<f64>| (q[0] - 1.0).powi(2) + (q[1] + 0.1).powi(2) < 0.09 - 1e-6;
 /// assert!(!solution.trajectory["p"].iter().any(inside));
@@ -450,7 +450,7 @@ pub struct SolutionLayout {
 pub struct Solution {
     /// `"converged"` or why it stopped (`"max_iterations"`, `"stalled"`,
     /// `"subproblem_infeasible"`, `"numerical_failure"`).
-    pub status: String,
+    pub status: PtrStatus,
     /// Final time (s).
     pub final_time: f64,
     /// SCvx iterations.
@@ -1148,7 +1148,7 @@ impl CompiledProblem {
         };
         let trajectory = self.layout.tables(&dense.time, &dense.x, &dense.u)?;
         Ok(Solution {
-            status: r.status.as_str().to_string(),
+            status: r.status,
             final_time: r.final_time,
             iterations: r.history.len(),
             nodes,
@@ -1254,6 +1254,6 @@ impl Solution {
 
     /// Whether the solve converged.
     pub fn converged(&self) -> bool {
-        self.status == "converged"
+        self.status == PtrStatus::Converged
     }
 }

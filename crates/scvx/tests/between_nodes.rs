@@ -77,11 +77,11 @@ fn solve(between_nodes: bool) -> (Solution, f64) {
 #[test]
 fn peak_rows_keep_the_path_out_of_the_disc_between_the_nodes() {
     let (nodal, depth_nodal) = solve(false);
-    assert_eq!(nodal.status, "converged");
+    assert_eq!(nodal.status, armature_scvx::PtrStatus::Converged);
     // At the nodes only: a segment cuts through the disc, which buys time.
     assert!(depth_nodal > 1e-2, "deepest penetration {depth_nodal}");
     let (peaks, depth_peaks) = solve(true);
-    assert_eq!(peaks.status, "converged");
+    assert_eq!(peaks.status, armature_scvx::PtrStatus::Converged);
     // Between the nodes too: the peak of each segment on the integration grid, refined by a
     // parabola, is within the integration's accuracy of the continuous one.
     assert!(depth_peaks <= 1e-5, "deepest penetration {depth_peaks}");
@@ -98,13 +98,13 @@ fn peak_rows_keep_the_path_out_of_the_disc_between_the_nodes() {
 #[test]
 fn moving_the_disc_re_solves_without_recompiling() {
     let mut compiled = problem(true).compile(PtrSettings::default()).unwrap();
-    assert_eq!(compiled.solve().unwrap().status, "converged");
+    assert_eq!(compiled.solve().unwrap().status, armature_scvx::PtrStatus::Converged);
     // The disc's centre moves to the other side of the line: the nodal and the between-nodes
     // constraint read it (the dynamics do not).
     let moved = [1.1, 0.1];
     assert_eq!(compiled.set_parameter("centre", &moved).unwrap(), 2);
     let s = compiled.solve().unwrap();
-    assert_eq!(s.status, "converged");
+    assert_eq!(s.status, armature_scvx::PtrStatus::Converged);
     let d = depth(&s, moved);
     assert!(d <= 1e-5, "deepest penetration of the moved disc {d}");
     // The path now passes below the disc.
@@ -155,7 +155,7 @@ fn far_segments_switch_their_peak_rows_off() {
     let (all, kkt_all) = solve_with(None);
     // g = r² − |p − c|² (m²).
     let (screened, kkt_screened) = solve_with(Some(0.15));
-    assert_eq!(screened.status, "converged");
+    assert_eq!(screened.status, armature_scvx::PtrStatus::Converged);
     assert!(depth(&screened, CENTRE) <= 1e-5);
     assert!(
         (screened.final_time - all.final_time).abs() < 1e-3 * all.final_time,

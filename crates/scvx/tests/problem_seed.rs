@@ -95,7 +95,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     compiled.set_dilation_guess(&s.s).unwrap();
     let sol = compiled.solve().unwrap();
     eprintln!("{} after {} iterations, T = {:.4} s", sol.status, sol.iterations, sol.final_time);
-    assert_eq!(sol.status, "converged");
+    assert_eq!(sol.status, armature_scvx::PtrStatus::Converged);
     assert!(sol.final_time <= 4.0 + 1e-9);
     // Named series, at the nodes and dense.
     for key in ["time", "angle", "velocity", "torque", "ee_position", "T_ee"] {
@@ -146,7 +146,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
         compiled.set_parameter(&seed::waypoint_parameter(5), &[0.30, 0.28, 0.05]).unwrap() >= 1
     );
     let again = compiled.solve().unwrap();
-    assert_eq!(again.status, "converged");
+    assert_eq!(again.status, armature_scvx::PtrStatus::Converged);
     let e = &again.nodes["ee_position"][10];
     let d = ((e[0] - 0.30).powi(2) + (e[1] - 0.28).powi(2) + (e[2] - 0.05).powi(2)).sqrt();
     assert!(d <= 0.01 + 1e-6, "moved waypoint: {d} m");

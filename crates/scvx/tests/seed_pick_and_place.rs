@@ -309,7 +309,9 @@ fn heavy_trust_region_subproblems_are_solved_natively() {
     assert!(!heavy.is_empty(), "λ_tr stayed below 1e3");
     // … where every subproblem is solved natively, well within the cap …
     assert!(heavy.iter().all(|h| h.1 < cap / 2), "{heavy:?}");
-    assert!(r.history.iter().all(|h| h.subproblem_status == "Solved"));
+    assert!(
+        r.history.iter().all(|h| h.subproblem_status == armature_scvx::SubproblemStatus::Solved)
+    );
     // … and the run converges and meets the task.
     assert_meets_the_task(&s, &r);
 }

@@ -10,7 +10,7 @@ use clap::Args;
 
 use crate::output::ResultFile;
 use crate::pipeline::plan;
-use crate::streaming::Streamer;
+use crate::streaming::{Streamer, wire_status};
 use crate::task::{Source, parse};
 use crate::view::{Iterate, Scene, ViewData};
 use crate::{CliError, exit, output};
@@ -179,9 +179,7 @@ pub fn run_task(
                 });
             }
             if let (Some(s), None) = (streamer.as_mut(), &stream_error) {
-                let status = it.status.map_or(Status::Running, |st| {
-                    Status::from_word(st.as_str()).unwrap_or(Status::Running)
-                });
+                let status = it.status.map_or(Status::Running, wire_status);
                 let sent = s.progress(it).and_then(|_| {
                     let tables = layout
                         .nodal_tables(traj)
@@ -195,7 +193,7 @@ pub fn run_task(
         })
         .map_err(CliError::bad_input)?;
     if let Some(s) = streamer.as_mut() {
-        let status = Status::from_word(&solution.status).unwrap_or(Status::NumericalFailure);
+        let status = wire_status(solution.status);
         let sent = match stream_error.take() {
             Some(e) => Err(e),
             None => s

@@ -59,7 +59,7 @@ impl ViewData {
     ) -> ViewData {
         let data = ViewData {
             source: source.to_string(),
-            status: solution.status.clone(),
+            status: solution.status.to_string(),
             final_time: solution.final_time,
             iterations: solution.iterations,
             max_violation: solution

@@ -44,7 +44,7 @@ impl Iteration {
             discretization_ms: 0.0,
             subproblem_ms: 0.0,
             subproblem_iterations: 0,
-            subproblem_status: "SetupFailed",
+            subproblem_status: SubproblemStatus::SetupFailed,
             status: None,
         }
     }

@@ -3,8 +3,9 @@
 
 use super::*;
 
-/// How a solve ended.
+/// How a solve ended (in JSON and on screen as a snake-case word: `converged`, …).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum PtrStatus {
     /// Both criteria met.
     Converged,
@@ -29,6 +30,68 @@ impl PtrStatus {
             PtrStatus::SubproblemInfeasible => "subproblem_infeasible",
             PtrStatus::NumericalFailure => "numerical_failure",
         }
+    }
+}
+
+impl std::fmt::Display for PtrStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// How the convex subproblem of one iteration ended (Clarabel's words; the native interior
+/// point reports `Solved` or hands over to Clarabel).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum SubproblemStatus {
+    /// No solver ran (its setup failed).
+    SetupFailed,
+    /// Solved to the tolerances.
+    Solved,
+    /// Solved to the reduced tolerances.
+    AlmostSolved,
+    /// Certified primal infeasible.
+    PrimalInfeasible,
+    /// Primal infeasible to the reduced tolerances.
+    AlmostPrimalInfeasible,
+    /// Certified dual infeasible (unbounded).
+    DualInfeasible,
+    /// Dual infeasible to the reduced tolerances.
+    AlmostDualInfeasible,
+    /// The solver's iteration cap.
+    MaxIterations,
+    /// The solver's time limit.
+    MaxTime,
+    /// A numerical error in the solver.
+    NumericalError,
+    /// The solver stopped making progress.
+    InsufficientProgress,
+    /// Any other outcome.
+    Other,
+}
+
+impl SubproblemStatus {
+    /// The status's name (`Solved`, `AlmostSolved`, …).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SubproblemStatus::SetupFailed => "SetupFailed",
+            SubproblemStatus::Solved => "Solved",
+            SubproblemStatus::AlmostSolved => "AlmostSolved",
+            SubproblemStatus::PrimalInfeasible => "PrimalInfeasible",
+            SubproblemStatus::AlmostPrimalInfeasible => "AlmostPrimalInfeasible",
+            SubproblemStatus::DualInfeasible => "DualInfeasible",
+            SubproblemStatus::AlmostDualInfeasible => "AlmostDualInfeasible",
+            SubproblemStatus::MaxIterations => "MaxIterations",
+            SubproblemStatus::MaxTime => "MaxTime",
+            SubproblemStatus::NumericalError => "NumericalError",
+            SubproblemStatus::InsufficientProgress => "InsufficientProgress",
+            SubproblemStatus::Other => "Other",
+        }
+    }
+}
+
+impl std::fmt::Display for SubproblemStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
     }
 }
 
@@ -69,8 +132,8 @@ pub struct Iteration {
     pub subproblem_ms: f64,
     /// Interior-point iterations of the subproblem.
     pub subproblem_iterations: u32,
-    /// Clarabel's status of the subproblem (`Solved`, `AlmostSolved`, …).
-    pub subproblem_status: &'static str,
+    /// How the subproblem ended.
+    pub subproblem_status: SubproblemStatus,
     /// Set on the final iteration: how the solve ended.
     pub status: Option<PtrStatus>,
 }

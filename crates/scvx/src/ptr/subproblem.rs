@@ -3,19 +3,19 @@
 use super::*;
 
 /// Clarabel's status as a static name (no allocation per iteration).
-pub(super) fn status_name(s: SolverStatus) -> &'static str {
+pub(super) fn status_name(s: SolverStatus) -> SubproblemStatus {
     match s {
-        SolverStatus::Solved => "Solved",
-        SolverStatus::AlmostSolved => "AlmostSolved",
-        SolverStatus::PrimalInfeasible => "PrimalInfeasible",
-        SolverStatus::AlmostPrimalInfeasible => "AlmostPrimalInfeasible",
-        SolverStatus::DualInfeasible => "DualInfeasible",
-        SolverStatus::AlmostDualInfeasible => "AlmostDualInfeasible",
-        SolverStatus::MaxIterations => "MaxIterations",
-        SolverStatus::MaxTime => "MaxTime",
-        SolverStatus::NumericalError => "NumericalError",
-        SolverStatus::InsufficientProgress => "InsufficientProgress",
-        _ => "Other",
+        SolverStatus::Solved => SubproblemStatus::Solved,
+        SolverStatus::AlmostSolved => SubproblemStatus::AlmostSolved,
+        SolverStatus::PrimalInfeasible => SubproblemStatus::PrimalInfeasible,
+        SolverStatus::AlmostPrimalInfeasible => SubproblemStatus::AlmostPrimalInfeasible,
+        SolverStatus::DualInfeasible => SubproblemStatus::DualInfeasible,
+        SolverStatus::AlmostDualInfeasible => SubproblemStatus::AlmostDualInfeasible,
+        SolverStatus::MaxIterations => SubproblemStatus::MaxIterations,
+        SolverStatus::MaxTime => SubproblemStatus::MaxTime,
+        SolverStatus::NumericalError => SubproblemStatus::NumericalError,
+        SolverStatus::InsufficientProgress => SubproblemStatus::InsufficientProgress,
+        _ => SubproblemStatus::Other,
     }
 }
 
@@ -95,7 +95,7 @@ impl Ptr {
                 };
                 record.subproblem_iterations += ipm.iterations();
                 if status == IpmStatus::Solved {
-                    record.subproblem_status = "Solved";
+                    record.subproblem_status = SubproblemStatus::Solved;
                     st.sol_x.copy_from_slice(ipm.x());
                     for (d, z) in st.sol_z.iter_mut().zip(ipm.z()) {
                         *d = z * s;
