@@ -65,6 +65,8 @@ pub enum Status {
     SubproblemInfeasible,
     /// The subproblem solver failed.
     NumericalFailure,
+    /// Converged at the nodes, but a continuous-time constraint is violated between them.
+    ViolatedBetweenNodes,
 }
 
 impl Status {
@@ -82,6 +84,7 @@ impl Status {
             Status::Stalled,
             Status::SubproblemInfeasible,
             Status::NumericalFailure,
+            Status::ViolatedBetweenNodes,
         ]
         .into_iter()
         .find(|s| s.code() == code)
@@ -96,6 +99,7 @@ impl Status {
             "stalled" => Some(Status::Stalled),
             "subproblem_infeasible" => Some(Status::SubproblemInfeasible),
             "numerical_failure" => Some(Status::NumericalFailure),
+            "violated_between_nodes" => Some(Status::ViolatedBetweenNodes),
             _ => None,
         }
     }
@@ -109,6 +113,7 @@ impl Status {
             Status::Stalled => "stalled",
             Status::SubproblemInfeasible => "subproblem_infeasible",
             Status::NumericalFailure => "numerical_failure",
+            Status::ViolatedBetweenNodes => "violated_between_nodes",
         }
     }
 }

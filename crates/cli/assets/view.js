@@ -422,7 +422,10 @@
     const robot = scene ? ` · ${scene.robot}` : '';
     let text = `<span class="${cls}">${data.status}</span> · T = ${data.final_time.toFixed(4)} s · ${data.iterations} iterations${robot}`;
     const v = data.max_violation;
-    if (v && typeof v.value === 'number') text += `<div style="font-weight:400">largest violation: ${v.constraint} = ${v.value.toExponential(2)}</div>`;
+    if (v && typeof v.value === 'number') {
+      const at = typeof v.time === 'number' ? ` at t = ${v.time.toFixed(3)} s` : '';
+      text += `<div style="font-weight:400">largest violation: ${v.constraint} = ${v.value.toExponential(2)}${at}</div>`;
+    }
     $('summary').innerHTML = text;
   }
 

@@ -578,6 +578,14 @@ pub fn settings(
             return Err(src.error(dt, format!("dense_dt {} must be > 0", p.dense_dt)));
         }
     }
+    if let Some(tol) = &s.dense_tolerance {
+        p.dense_tolerance = *tol.get_ref();
+        if !(p.dense_tolerance.is_finite() && p.dense_tolerance > 0.0) {
+            return Err(
+                src.error(tol, format!("dense_tolerance {} must be > 0", p.dense_tolerance))
+            );
+        }
+    }
     p.validate().map_err(|e| src.error_at(0, format!("[settings]: {e}")))?;
     Ok(p)
 }

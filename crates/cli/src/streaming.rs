@@ -26,6 +26,7 @@ pub fn wire_status(s: PtrStatus) -> Status {
         PtrStatus::Stalled => Status::Stalled,
         PtrStatus::SubproblemInfeasible => Status::SubproblemInfeasible,
         PtrStatus::NumericalFailure => Status::NumericalFailure,
+        PtrStatus::ViolatedBetweenNodes => Status::ViolatedBetweenNodes,
     }
 }
 

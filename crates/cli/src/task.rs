@@ -359,6 +359,11 @@ pub struct SettingsSpec {
     #[serde(default)]
     #[schemars(with = "Option<f64>")]
     pub dense_dt: Option<Spanned<f64>>,
+    /// Largest violation of a continuous-time constraint on the dense trajectory that a
+    /// converged solve may keep (default 1e-4).
+    #[serde(default)]
+    #[schemars(with = "Option<f64>")]
+    pub dense_tolerance: Option<Spanned<f64>>,
     /// Convergence tolerance of the trust-region step.
     #[serde(default)]
     pub eps_tr: Option<f64>,

@@ -26,14 +26,23 @@ fn fastest(r: &Value) -> f64 {
 fn the_double_integrator_problem_file_reaches_the_analytic_time() {
     let (code, stdout, stderr) =
         armature(&["solve", example("double-integrator.toml").to_str().unwrap(), "-q", "-o", "-"]);
-    assert_eq!(code, 0, "{stderr}");
     let r: Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(r["status"], "converged");
     let tf = r["final_time"].as_f64().unwrap();
     assert!((tf - 2.1286).abs() / 2.1286 < 0.01, "{tf}");
-    // The speed limit holds on the dense trajectory (CTCS, ε = 1e-6), the output is there.
+    // Honest reports: converged only if the dense speed keeps its limit within
+    // `dense_tolerance` (1e-4); otherwise the status says so and names the speed limit with
+    // its excess, measured here independently from the dense `v`.
     let vmax = fastest(&r);
-    assert!(vmax < 0.7 * 1.01, "{vmax}");
+    if r["status"] == "converged" {
+        assert_eq!(code, 0, "{stderr}");
+        assert!(vmax <= 0.7 + 1e-4, "{vmax}");
+    } else {
+        assert_eq!((code, r["status"].as_str()), (3, Some("violated_between_nodes")), "{stderr}");
+        let v = &r["max_violation"];
+        assert_eq!(v["constraint"], "speed limit (dense)");
+        assert!((v["value"].as_f64().unwrap() - (vmax - 0.7)).abs() < 1e-12, "{v} vs {vmax}");
+        assert!(vmax > 0.7 + 1e-4 && vmax < 0.7 * 1.01, "{vmax}");
+    }
     assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);
 }
 

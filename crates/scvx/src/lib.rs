@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod ctcs;
+mod dense_check;
 pub mod discretization;
 pub mod ipm;
 pub mod ocp;

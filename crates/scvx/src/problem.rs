@@ -52,6 +52,7 @@ use std::time::Instant;
 use armature_symbolic::{Constraint, Expr, Function, SymbolicError, Timing};
 use serde::Serialize;
 
+use crate::dense_check::{BoundCheck, DenseChecks, PathCheck};
 use crate::{
     CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration, NodalConstraint,
     NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, Trajectory,
@@ -427,6 +428,8 @@ pub struct CompiledProblem {
     ptr: Ptr,
     /// `(internal state name, what its integral carries)` per CTCS group.
     ctcs_names: Vec<(String, String)>,
+    /// The continuous-time constraints checked on the dense trajectory.
+    dense_checks: DenseChecks,
     settings: PtrSettings,
     layout: SolutionLayout,
     guess: Guess,
@@ -547,6 +550,7 @@ impl Problem {
             }
         }
         let mut nodal_specs = Vec::new();
+        let mut continuous = Vec::new();
         for pc in &self.constraints {
             let c = &pc.constraint;
             c.validate(nn).map_err(sym(format!("constraint \"{}\"", c.name())))?;
@@ -557,6 +561,9 @@ impl Problem {
                 Timing::Continuous(range) => {
                     let (a, b) = range.unwrap_or((0, nn - 1));
                     add(c.function().clone(), a, b, pc.ctcs, c.name());
+                    let g = c.function().clone();
+                    let g = if c.is_equality() { Expr::concat(&[g.clone(), -g]) } else { g };
+                    continuous.push((c.name().to_string(), g, a, b));
                 }
                 Timing::Nodal(nodes) => nodal_specs.push((c, nodes.resolve(nn))),
             }
@@ -660,6 +667,7 @@ impl Problem {
             }
             interval_constraints.push(ic);
         }
+        let dense_checks = self.dense_checks(continuous, &interval_constraints, &args)?;
         // Outputs.
         let mut outputs = Vec::new();
         let mut off = 0;
@@ -769,6 +777,7 @@ impl Problem {
             .collect();
         Ok(CompiledProblem {
             ctcs_names,
+            dense_checks,
             layout: SolutionLayout {
                 states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),
                 controls: blocks(
@@ -783,6 +792,49 @@ impl Problem {
             settings,
             guess,
         })
+    }
+
+    /// What the dense trajectory is checked against: the continuous constraints
+    /// `(name, g, first node, last node)`, the between-nodes constraints, and the named
+    /// states' bounds when they are held in continuous time.
+    fn dense_checks(
+        &self,
+        continuous: Vec<(String, Expr, usize, usize)>,
+        interval_constraints: &[IntervalConstraint],
+        args: &[&[Expr]],
+    ) -> Result<DenseChecks, ProblemError> {
+        let mut checks = DenseChecks::default();
+        for (name, g, first, last) in continuous {
+            let what = format!("constraint \"{name}\"");
+            let function = Function::compile(&[g], args).map_err(sym(what))?;
+            checks.paths.push(PathCheck { name, function, first, last });
+        }
+        for c in interval_constraints {
+            checks.paths.push(PathCheck {
+                name: c.name.clone(),
+                function: c.function.clone(),
+                first: c.first,
+                last: c.last,
+            });
+        }
+        if self.state_bounds_ctcs.is_some() {
+            let mut row = 0;
+            for st in &self.states {
+                for i in 0..st.size() {
+                    let (min, max) = (st.min[i], st.max[i]);
+                    if min.is_finite() || max.is_finite() {
+                        let name = if st.size() == 1 {
+                            st.name.clone()
+                        } else {
+                            format!("{}[{i}]", st.name)
+                        };
+                        checks.bounds.push(BoundCheck { name, row, min, max });
+                    }
+                    row += 1;
+                }
+            }
+        }
+        Ok(checks)
     }
 
     fn is_variable_name(&self, name: &str) -> bool {
@@ -1068,6 +1120,14 @@ impl CompiledProblem {
             f.set_parameter(name, value).map_err(sym(format!("parameter \"{name}\"")))?;
             count += 1;
         }
+        // The dense checks read the same parameters (not counted: they mirror the solver's).
+        for c in &mut self.dense_checks.paths {
+            if c.function.parameter_names().any(|p| p == name) {
+                c.function
+                    .set_parameter(name, value)
+                    .map_err(sym(format!("parameter \"{name}\"")))?;
+            }
+        }
         if count == 0 {
             return Err(PtrError::UnknownParameter(name.to_string()).into());
         }
@@ -1147,8 +1207,24 @@ impl CompiledProblem {
             v
         };
         let trajectory = self.layout.tables(&dense.time, &dense.x, &dense.u)?;
+        let m = ocp.dynamics.n_u();
+        let dense_violations = self.dense_checks.violations(&dense, (n, m), &node_times)?;
+        let worst_dense = dense_violations.iter().map(|v| v.value).fold(0.0, f64::max);
+        let status =
+            if r.status == PtrStatus::Converged && worst_dense > self.settings.dense_tolerance {
+                PtrStatus::ViolatedBetweenNodes
+            } else {
+                r.status
+            };
+        let mut violations: Vec<Violation> = r.violations.iter().map(rename).collect();
+        violations.extend(dense_violations);
+        let max_violation = violations
+            .iter()
+            .filter(|v| v.value > 0.0)
+            .max_by(|a, b| a.value.total_cmp(&b.value))
+            .cloned();
         Ok(Solution {
-            status: r.status,
+            status,
             final_time: r.final_time,
             iterations: r.history.len(),
             nodes,
@@ -1160,8 +1236,8 @@ impl CompiledProblem {
                 solve_ms,
                 post_processing_ms: t0.elapsed().as_secs_f64() * 1e3,
             },
-            violations: r.violations.iter().map(rename).collect(),
-            max_violation: r.max_violation.as_ref().map(rename),
+            violations,
+            max_violation,
         })
     }
 }

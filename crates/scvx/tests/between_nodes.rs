@@ -104,7 +104,7 @@ fn moving_the_disc_re_solves_without_recompiling() {
     let moved = [1.1, 0.1];
     assert_eq!(compiled.set_parameter("centre", &moved).unwrap(), 2);
     let s = compiled.solve().unwrap();
-    assert_eq!(s.status, armature_scvx::PtrStatus::Converged);
+    assert_eq!(s.status, armature_scvx::PtrStatus::Converged, "{:?}", s.max_violation);
     let d = depth(&s, moved);
     assert!(d <= 1e-5, "deepest penetration of the moved disc {d}");
     // The path now passes below the disc.

@@ -95,7 +95,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     compiled.set_dilation_guess(&s.s).unwrap();
     let sol = compiled.solve().unwrap();
     eprintln!("{} after {} iterations, T = {:.4} s", sol.status, sol.iterations, sol.final_time);
-    assert_eq!(sol.status, armature_scvx::PtrStatus::Converged);
+    solved(&sol);
     assert!(sol.final_time <= 4.0 + 1e-9);
     // Named series, at the nodes and dense.
     for key in ["time", "angle", "velocity", "torque", "ee_position", "T_ee"] {
@@ -121,10 +121,13 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     assert!(worst("ee_position", &|i, z| if i == 2 { -z } else { 0.0 }) <= 1e-4);
     assert!(worst("angle", &|i, q| (q - qhi[i]).max(qlo[i] - q)) <= 1e-4);
     assert!(worst("velocity", &|_, v| v.abs() - seed::VELOCITY) <= 1e-4);
-    // Every constraint reported by name; nothing left violated.
+    // Every constraint reported by name; nothing left violated at the nodes (the dense
+    // checks carry their instants).
     assert!(sol.violations.iter().any(|v| v.constraint == "waypoint 5"));
     assert!(sol.violations.iter().any(|v| v.constraint == "dynamics of angle[3]"));
-    assert!(sol.max_violation.as_ref().is_none_or(|v| v.value < 1e-6), "{:?}", sol.max_violation);
+    assert!(sol.violations.iter().any(|v| v.constraint == "table (dense)" && v.time.is_some()));
+    let nodal = sol.violations.iter().filter(|v| v.time.is_none());
+    assert!(nodal.clone().all(|v| v.value < 1e-6), "{:?}", nodal.collect::<Vec<_>>());
     // The JSON keys scripts depend on.
     let json = serde_json::to_value(&sol).unwrap();
     for key in [
@@ -146,7 +149,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
         compiled.set_parameter(&seed::waypoint_parameter(5), &[0.30, 0.28, 0.05]).unwrap() >= 1
     );
     let again = compiled.solve().unwrap();
-    assert_eq!(again.status, armature_scvx::PtrStatus::Converged);
+    solved(&again);
     let e = &again.nodes["ee_position"][10];
     let d = ((e[0] - 0.30).powi(2) + (e[1] - 0.28).powi(2) + (e[2] - 0.05).powi(2)).sqrt();
     assert!(d <= 0.01 + 1e-6, "moved waypoint: {d} m");
@@ -190,4 +193,22 @@ fn bad_problems_say_what_is_wrong() {
     p.dynamics[0] = Expr::variable("nope", 7);
     let err = p.compile(PtrSettings::default()).unwrap_err();
     assert!(err.to_string().contains("nope"), "{err}");
+}
+
+/// Converged — or converged at the nodes with a constraint broken on the dense trajectory,
+/// named with its instant (the seed's squared-ReLU orientation ranges, ε = 1e-4, hold at the
+/// nodes but not between them).
+fn solved(sol: &armature_scvx::Solution) {
+    use armature_scvx::PtrStatus;
+    match sol.status {
+        PtrStatus::Converged => {}
+        PtrStatus::ViolatedBetweenNodes => {
+            let v = sol.max_violation.as_ref().unwrap();
+            assert!(
+                v.constraint.ends_with("(dense)") && v.time.is_some() && v.value > 1e-4,
+                "{v:?}"
+            );
+        }
+        other => panic!("{other}: {:?}", sol.max_violation),
+    }
 }

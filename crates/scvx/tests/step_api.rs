@@ -56,7 +56,7 @@ fn stepping_by_hand_equals_solve_and_the_observer_sees_every_iteration() {
     assert_eq!(seen, (1..=solved.history.len()).collect::<Vec<_>>());
     let table = String::from_utf8(table).unwrap();
     assert_eq!(table.lines().count(), 1 + solved.history.len() + 1, "{table}");
-    assert!(table.ends_with("stopped: Converged\n"), "{table}");
+    assert!(table.ends_with("SCvx loop stopped: converged\n"), "{table}");
     // The same by hand, reusing the solver.
     ptr.start(&x, &u, &s).unwrap();
     let mut last = None;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use armature_bridge::{BridgeError, Status};
-use armature_scvx::IterationTable;
+use armature_scvx::{IterationTable, PtrStatus};
 use clap::Args;
 
 use crate::output::ResultFile;
@@ -223,7 +223,12 @@ pub fn run_task(
         t0.elapsed().as_secs_f64() * 1e3
     ));
     if let Some(v) = &solution.max_violation {
-        say(&format!("largest violation: {} = {:.3e} at node {:?}", v.constraint, v.value, v.node));
+        let at = match (v.time, v.node) {
+            (Some(t), Some(k)) => format!(" at t = {t:.3} s (segment {k})"),
+            (None, Some(k)) => format!(" at node {k}"),
+            _ => String::new(),
+        };
+        say(&format!("largest violation: {} = {:.3e}{at}", v.constraint, v.value));
     }
     let scene = plan.as_ref().map(Scene::from_plan);
     let result = ResultFile { solution: &solution, scene: scene.as_ref(), iterates: &iterates };
@@ -247,13 +252,18 @@ pub fn run_task(
             .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
     }
     if solution.converged() {
-        Ok(())
-    } else {
-        Err(CliError {
-            message: format!("the solve stopped without converging: {}", solution.status),
-            code: exit::NOT_CONVERGED,
-        })
+        return Ok(());
     }
+    let message = match (&solution.status, &solution.max_violation) {
+        (PtrStatus::ViolatedBetweenNodes, Some(v)) => format!(
+            "converged at the nodes, but the dense trajectory violates {} by {:.3e}{} (more than dense_tolerance)",
+            v.constraint.trim_end_matches(" (dense)"),
+            v.value,
+            v.time.map_or(String::new(), |t| format!(" at t = {t:.3} s"))
+        ),
+        (status, _) => format!("the solve stopped without converging: {status}"),
+    };
+    Err(CliError { message, code: exit::NOT_CONVERGED })
 }
 
 /// The initial guess as an iterate: the end effector at the IK configurations of the nodes.

@@ -41,3 +41,26 @@ pub(crate) fn temp_file(tag: &str, name: &str, text: &str) -> TempFile {
     std::fs::write(&path, text).unwrap();
     TempFile { _dir: dir, path }
 }
+
+/// A task solve that ended at a solution: converged (exit 0), or converged at the nodes with
+/// a constraint broken on the dense trajectory (exit 3, status `violated_between_nodes`, the
+/// largest violation a dense check with its time). The seed's tasks end in the second way
+/// today: their gripper-orientation ranges (squared-ReLU CTCS, ε = 1e-4, two nodes per
+/// segment) hold at the nodes but not between them.
+pub(crate) fn assert_solved(code: i32, result: &serde_json::Value, stderr: &str) {
+    match result["status"].as_str() {
+        Some("converged") => assert_eq!(code, 0, "{stderr}"),
+        Some("violated_between_nodes") => {
+            assert_eq!(code, 3, "{stderr}");
+            let v = &result["max_violation"];
+            assert!(
+                v["constraint"].as_str().is_some_and(|c| c.ends_with("(dense)"))
+                    && v["time"].is_number()
+                    && v["value"].as_f64().is_some_and(|x| x > 1e-4),
+                "{v}"
+            );
+            assert!(stderr.contains("converged at the nodes, but the dense trajectory violates"));
+        }
+        other => panic!("status {other:?}: {stderr}"),
+    }
+}

@@ -17,11 +17,16 @@ pub enum PtrStatus {
     SubproblemInfeasible,
     /// Clarabel failed numerically.
     NumericalFailure,
+    /// The loop converged at the nodes, but a constraint held in continuous time is violated
+    /// on the dense trajectory by more than
+    /// [`dense_tolerance`](crate::PtrSettings::dense_tolerance) (set by the named layer's
+    /// check after the solve; the violations name it).
+    ViolatedBetweenNodes,
 }
 
 impl PtrStatus {
     /// The status as a stable snake-case word (`converged`, `max_iterations`, `stalled`,
-    /// `subproblem_infeasible`, `numerical_failure`).
+    /// `subproblem_infeasible`, `numerical_failure`, `violated_between_nodes`).
     pub fn as_str(self) -> &'static str {
         match self {
             PtrStatus::Converged => "converged",
@@ -29,6 +34,7 @@ impl PtrStatus {
             PtrStatus::Stalled => "stalled",
             PtrStatus::SubproblemInfeasible => "subproblem_infeasible",
             PtrStatus::NumericalFailure => "numerical_failure",
+            PtrStatus::ViolatedBetweenNodes => "violated_between_nodes",
         }
     }
 }
@@ -271,8 +277,12 @@ pub struct Violation {
     pub constraint: String,
     /// Its largest violation (≥ 0; a dynamics defect in the state's units).
     pub value: f64,
-    /// The node (for dynamics: the segment's first node) where it is largest.
+    /// The node (for dynamics and the dense trajectory: the segment's first node) where it
+    /// is largest.
     pub node: Option<usize>,
+    /// For a check on the dense trajectory: the instant where it is largest (s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time: Option<f64>,
 }
 
 /// Wall-clock totals of a solve (ms).
@@ -344,7 +354,7 @@ impl IterationTable {
             it.subproblem_status
         )?;
         if let Some(status) = it.status {
-            writeln!(w, "stopped: {status:?}")?;
+            writeln!(w, "SCvx loop stopped: {status}")?;
         }
         Ok(())
     }

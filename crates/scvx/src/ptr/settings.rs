@@ -44,6 +44,10 @@ pub struct PtrSettings {
     pub subproblem: SubproblemSettings,
     /// Time step of the dense propagation in post-processing (s). Default 0.01.
     pub dense_dt: f64,
+    /// Largest violation of a continuous-time constraint on the dense trajectory that a
+    /// converged solve may keep (in the constraint's units; default 1e-4): above it the
+    /// named layer reports [`PtrStatus::ViolatedBetweenNodes`].
+    pub dense_tolerance: f64,
     /// With [`TrustRegionUpdate::Adaptive`]: before rejecting a step, try it scaled by ½ and
     /// ¼ (each costs a discretization, not a subproblem); a scaled step is accepted when its
     /// ρ against the scaled prediction passes η₀ and the merit decreases, and λ_tr then
@@ -198,6 +202,7 @@ impl PtrSettings {
             ("subproblem.tolerance", self.subproblem.tolerance),
             ("subproblem.refinement_tolerance", self.subproblem.refinement_tolerance),
             ("dense_dt", self.dense_dt),
+            ("dense_tolerance", self.dense_tolerance),
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -259,6 +264,7 @@ impl Default for PtrSettings {
             discretization: DiscretizationSettings::default(),
             subproblem: SubproblemSettings::default(),
             dense_dt: 0.01,
+            dense_tolerance: 1e-4,
             backtracking: true,
             quasi_newton: false,
             merit: Merit::ExactPenalty,

@@ -19,6 +19,7 @@ impl Ptr {
                 ),
                 value: d,
                 node: Some(k),
+                time: None,
             });
         }
         let zeros = vec![0.0; st.lam_vb.len()];
@@ -39,12 +40,22 @@ impl Ptr {
                     Some(i) => slot.push(first + i),
                     None => {
                         slot.push(out.len());
-                        out.push(Violation { constraint: name.clone(), value: 0.0, node: None });
+                        out.push(Violation {
+                            constraint: name.clone(),
+                            value: 0.0,
+                            node: None,
+                            time: None,
+                        });
                     }
                 }
             }
             if slot.is_empty() {
-                out.push(Violation { constraint: c.name.clone(), value: 0.0, node: None });
+                out.push(Violation {
+                    constraint: c.name.clone(),
+                    value: 0.0,
+                    node: None,
+                    time: None,
+                });
             }
             for &k in &c.nodes {
                 for &o in &slot {
@@ -78,7 +89,7 @@ impl Ptr {
                 ),
                 (_, c) => format!("{} between nodes", self.ocp.interval_constraints[c].name),
             };
-            let mut worst = Violation { constraint, value: 0.0, node: None };
+            let mut worst = Violation { constraint, value: 0.0, node: None, time: None };
             for (i, p) in self.peaks.iter().enumerate().filter(|(_, p)| key(p.of) == k) {
                 let v = st.ev.violation[nb + i];
                 if v > worst.value || worst.node.is_none() {

@@ -1,0 +1,111 @@
+//! The honest report: every constraint the problem holds in continuous time, evaluated on
+//! the dense trajectory after the solve — the path constraints (`.ctcs()`, over their node
+//! ranges), the between-nodes constraints, and the state bounds when they are held between
+//! the nodes ([`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)). The PTR
+//! loop sees these only through integrals and peak rows; a solve whose dense trajectory
+//! breaks one by more than [`PtrSettings::dense_tolerance`](crate::PtrSettings) is not
+//! reported converged.
+
+use armature_symbolic::Function;
+
+use crate::{DenseTrajectory, ProblemError, Violation};
+
+/// A vector function `g(x, u) ≤ 0` held from node `first` to node `last`.
+#[derive(Debug, Clone)]
+pub(crate) struct PathCheck {
+    pub(crate) name: String,
+    pub(crate) function: Function,
+    pub(crate) first: usize,
+    pub(crate) last: usize,
+}
+
+/// A state row's bounds, held at every instant.
+#[derive(Debug, Clone)]
+pub(crate) struct BoundCheck {
+    /// `name[i]` (or the state's name when it is a scalar).
+    pub(crate) name: String,
+    pub(crate) row: usize,
+    pub(crate) min: f64,
+    pub(crate) max: f64,
+}
+
+/// Everything checked on the dense trajectory.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct DenseChecks {
+    pub(crate) paths: Vec<PathCheck>,
+    pub(crate) bounds: Vec<BoundCheck>,
+}
+
+/// The worst value over the samples: (value, sample).
+fn worst(values: impl Iterator<Item = (f64, usize)>) -> Option<(f64, usize)> {
+    values.fold(None, |best, (v, j)| match best {
+        Some((b, _)) if b >= v => best,
+        _ => Some((v, j)),
+    })
+}
+
+impl DenseChecks {
+    /// The largest violation of each check on `dense` (n states, m controls per sample),
+    /// with the time of the worst sample; `node_times` maps node ranges to times. Values are
+    /// the positive part of `g` (or the distance outside the bounds), 0 when the check holds.
+    ///
+    /// # Errors
+    /// A check's evaluation failure, naming it.
+    pub(crate) fn violations(
+        &self,
+        dense: &DenseTrajectory,
+        (n, m): (usize, usize),
+        node_times: &[f64],
+    ) -> Result<Vec<Violation>, ProblemError> {
+        let samples = dense.time.len();
+        let x = |j: usize| &dense.x[j * n..(j + 1) * n];
+        let mut out = Vec::with_capacity(self.paths.len() + self.bounds.len());
+        for b in &self.bounds {
+            let excess = (0..samples).map(|j| {
+                let v = x(j)[b.row];
+                (if v.is_nan() { f64::INFINITY } else { (v - b.max).max(b.min - v).max(0.0) }, j)
+            });
+            out.push(violation(format!("bounds of {} (dense)", b.name), worst(excess), dense));
+        }
+        let mut input = vec![0.0; n + m];
+        for c in &self.paths {
+            let mut ws = c.function.workspace();
+            let mut values = vec![0.0; c.function.n_outputs()];
+            // The samples within the node range (a small slack for the rounding of times).
+            let (t0, t1) = (node_times[c.first], node_times[c.last]);
+            let slack = 1e-12 * (1.0 + t1.abs());
+            let mut best: Option<(f64, usize)> = None;
+            for j in
+                (0..samples).filter(|&j| dense.time[j] >= t0 - slack && dense.time[j] <= t1 + slack)
+            {
+                input[..n].copy_from_slice(x(j));
+                input[n..].copy_from_slice(&dense.u[j * m..(j + 1) * m]);
+                c.function.eval(&input, &mut ws, &mut values, None).map_err(|source| {
+                    ProblemError::Symbolic {
+                        what: format!("constraint \"{}\" on the dense trajectory", c.name),
+                        source,
+                    }
+                })?;
+                // NaN is a violation (f64::max would drop it).
+                let v = if values.iter().any(|v| v.is_nan()) {
+                    f64::INFINITY
+                } else {
+                    values.iter().copied().fold(0.0, f64::max)
+                };
+                best = worst(best.into_iter().chain(std::iter::once((v, j))));
+            }
+            out.push(violation(format!("{} (dense)", c.name), best, dense));
+        }
+        Ok(out)
+    }
+}
+
+fn violation(constraint: String, w: Option<(f64, usize)>, dense: &DenseTrajectory) -> Violation {
+    let (value, j) = w.unwrap_or((0.0, 0));
+    Violation {
+        constraint,
+        value,
+        node: dense.segment.get(j).copied(),
+        time: w.map(|_| dense.time[j]),
+    }
+}

@@ -1,0 +1,69 @@
+//! Honest reports: a solve is `converged` only when every constraint held in continuous time
+//! also holds on the dense trajectory within `dense_tolerance`; otherwise the status is
+//! `violated_between_nodes` and the violations name the constraint with its instant. Checked
+//! on a minimum-time double integrator with a `.ctcs()` speed limit at the default settings,
+//! against the speed measured here from the dense trajectory.
+
+use armature_scvx::{Control, Problem, PtrSettings, PtrStatus, Solution, State, Time};
+
+const V_MAX: f64 = 0.7;
+
+/// From rest at 0 to rest at 1, |a| ≤ 1, the speed limit |v| ≤ 0.7 in continuous time.
+fn problem(nodes: usize) -> Problem {
+    let p = State::new("p", 1).bounds(&[-10.0], &[10.0]).initial_value(&[0.0]).final_value(&[1.0]);
+    let v = State::new("v", 1).bounds(&[-10.0], &[10.0]).initial_value(&[0.0]).final_value(&[0.0]);
+    let a = Control::new("a", 1).bounds(&[-1.0], &[1.0]);
+    let speed = v.expr().abs() - V_MAX;
+    Problem {
+        dynamics: vec![v.expr(), a.expr()],
+        constraints: vec![speed.le(0.0).ctcs().named("speed limit").into()],
+        states: vec![p, v],
+        controls: vec![a],
+        time: Time::Free { min: 0.0, max: 10.0, guess: 3.0, minimize: true },
+        ..Problem::new(nodes)
+    }
+}
+
+fn fastest(s: &Solution) -> f64 {
+    s.trajectory["v"].iter().map(|r| r[0].abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn the_speed_limit_holds_on_the_dense_trajectory_or_the_status_says_so() {
+    for nodes in [6, 11, 41] {
+        let s = problem(nodes).compile(PtrSettings::default()).unwrap().solve().unwrap();
+        let vmax = fastest(&s);
+        let dense = s.violations.iter().find(|v| v.constraint == "speed limit (dense)").unwrap();
+        assert!((dense.value - (vmax - V_MAX).max(0.0)).abs() < 1e-12, "{dense:?} vs {vmax}");
+        match s.status {
+            PtrStatus::Converged => assert!(vmax <= V_MAX + 1e-4, "{nodes} nodes: {vmax}"),
+            PtrStatus::ViolatedBetweenNodes => {
+                assert!(vmax > V_MAX + 1e-4, "{nodes} nodes: {vmax}");
+                let worst = s.max_violation.as_ref().unwrap();
+                assert_eq!(worst, dense, "the largest violation is the speed limit's");
+                // Its instant is a dense sample where the speed is the fastest.
+                let t = worst.time.unwrap();
+                let k = s.trajectory["time"].iter().position(|r| r[0] == t).unwrap();
+                assert_eq!(s.trajectory["v"][k][0].abs(), vmax);
+            }
+            other => panic!("{nodes} nodes: {other}"),
+        }
+    }
+}
+
+#[test]
+fn the_tolerance_decides_and_a_loose_one_lets_the_same_solve_converge() {
+    let strict = problem(6).compile(PtrSettings::default()).unwrap().solve().unwrap();
+    let excess = fastest(&strict) - V_MAX;
+    assert!(excess > 1e-4, "6 nodes keep the limit: the test needs an overshoot ({excess})");
+    assert_eq!(strict.status, PtrStatus::ViolatedBetweenNodes);
+    let loose = PtrSettings { dense_tolerance: 2.0 * excess, ..PtrSettings::default() };
+    let s = problem(6).compile(loose).unwrap().solve().unwrap();
+    assert_eq!(s.status, PtrStatus::Converged);
+    assert_eq!((s.final_time, s.iterations), (strict.final_time, strict.iterations));
+    // Not a usable tolerance.
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let settings = PtrSettings { dense_tolerance: bad, ..PtrSettings::default() };
+        assert!(problem(6).compile(settings).is_err(), "{bad}");
+    }
+}
