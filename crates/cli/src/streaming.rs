@@ -18,6 +18,10 @@ pub struct Streamer {
 
 type Tables = BTreeMap<String, Vec<Vec<f64>>>;
 
+/// Longest wait `--timeout` and `--linger` accept (s; about 32 years): beyond it a duration
+/// does not fit the clock.
+pub const MAX_WAIT_SECONDS: f64 = 1e9;
+
 /// The wire status of a solve that ended with `s`.
 pub fn wire_status(s: PtrStatus) -> Status {
     match s {

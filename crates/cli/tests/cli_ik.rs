@@ -70,6 +70,12 @@ fn single_target_converges_or_reports_best_effort() {
     let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["converged"], false);
     assert!(v["position_error"].as_f64().unwrap().is_finite());
+    // So far away that the squared error overflows: still not converged (issue 25, class 5).
+    let (code, out, err) = armature(&["ik", "--pos", "1e300,0,0"]);
+    assert_eq!(code, 3, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["converged"], false);
+    assert!((v["position_error"].as_f64().unwrap() / 1e300 - 1.0).abs() < 1e-6, "{v}");
 }
 
 #[test]

@@ -211,3 +211,18 @@ fn schemas_accept_the_shipped_examples_and_reject_unknown_keys() {
     let problem: Value = toml::from_str(PROBLEM).unwrap();
     assert!(!validator.is_valid(&problem));
 }
+
+/// A huge iteration cap is a cap, not an allocation (issue 25, class 3: the history was
+/// reserved for every allowed iteration up front and aborted the process).
+#[test]
+fn a_huge_iteration_cap_solves_as_usual() {
+    for cap in ["300000000", "9223372036854775807"] {
+        let text = PROBLEM.replace("max_iterations = 150", &format!("max_iterations = {cap}"));
+        assert_ne!(text, PROBLEM);
+        let path = temp_file(&format!("cap-{}", cap.len()), "problem.toml", &text);
+        let (code, stdout, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+        assert!(code == 0 || code == 3, "{cap}: exit {code}: {stderr}");
+        let r: Value = serde_json::from_str(&stdout).unwrap();
+        assert!(r["iterations"].as_u64().unwrap() < 150, "{cap}: {}", r["iterations"]);
+    }
+}

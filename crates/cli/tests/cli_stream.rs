@@ -121,3 +121,22 @@ fn listen_gives_up_after_its_timeout_and_names_are_checked() {
     assert_eq!(code, 2);
     assert!(stderr.contains("run name"), "{stderr}");
 }
+
+/// Durations that do not fit the clock are bad input, not a panic (issue 25, class 3).
+#[test]
+fn huge_timeouts_and_lingers_are_refused_before_anything_runs() {
+    for (args, flag) in [
+        (vec!["listen", "huge-timeout", "--timeout", "1e20"], "--timeout 100000000000000000000"),
+        (vec!["listen", "huge-timeout", "--timeout", "inf"], "--timeout inf"),
+        (
+            vec!["demo", "-q", "--stream", "huge-linger", "--linger", "1e20"],
+            "--linger 100000000000000000000",
+        ),
+        (vec!["demo", "-q", "--stream", "huge-linger", "--linger=-1"], "--linger -1"),
+    ] {
+        let (code, stdout, stderr) = armature(&args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stderr.contains(flag) && stderr.contains("at most 1e9"), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked") && stdout.is_empty(), "{stderr}");
+    }
+}

@@ -281,6 +281,9 @@ impl IkWorkspace {
     }
 }
 
+/// Residuals above this (in their largest entry) are scaled down before the step's solve.
+const RESIDUAL_SCALE_ABOVE: f64 = 1e100;
+
 /// Weighted residual `[w_p (p* − p); w_o log(R* Rᵀ)]` and the two unweighted error norms.
 fn residual(
     ws: &IkWorkspace,
@@ -302,7 +305,13 @@ fn residual(
         s.orientation_weight * eo.y,
         s.orientation_weight * eo.z,
     );
-    (res, ep.norm(), eo.norm())
+    (res, safe_norm(&ep), safe_norm(&eo))
+}
+
+/// ‖v‖ without overflow or underflow of the squares (a target at 1e300 m is 1e300 m away).
+fn safe_norm(v: &Vector3<f64>) -> f64 {
+    let scale = v.amax();
+    if scale > 0.0 && scale.is_finite() { scale * (v / scale).norm() } else { scale }
 }
 
 fn converged(pe: f64, oe: f64, s: &IkSettings) -> bool {
@@ -341,7 +350,9 @@ pub fn solve(
         )));
     }
     let mut rng = Pcg64Mcg::seed_from_u64(settings.rng_seed);
-    let mut best = (f64::INFINITY, 0.0, 0.0);
+    // (cost, position error, orientation error) of the best attempt; the first attempt is
+    // always taken, so an overflowing cost cannot leave zero errors behind.
+    let mut best = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
     let mut attempts = 0;
     let mut evaluations = 0;
@@ -370,7 +381,7 @@ pub fn solve(
         let (cost, pe, oe, it, ev) = attempt_solve(chain, target, settings, ws)?;
         iterations += it;
         evaluations += ev;
-        if cost < best.0 {
+        if attempt == 0 || cost < best.0 {
             best = (cost, pe, oe);
             ws.best.copy_from_slice(&ws.q);
         }
@@ -467,7 +478,11 @@ fn attempt_solve(
                 }
                 continue;
             };
-            let y = cholesky6_solve(&chol, &r);
+            // The step is linear in r: for an astronomically large residual solve with r
+            // scaled down and carry the factor, so nothing overflows (the step is capped at
+            // `max_step` anyway).
+            let factor = if r.amax() > RESIDUAL_SCALE_ABOVE { r.amax() } else { 1.0 };
+            let y = cholesky6_solve(&chol, &(r / factor));
             let yz = if use_null { cholesky6_solve(&chol, &jz) } else { Vector6::zeros() };
             let mut newly_locked = false;
             let mut dmax: f64 = 0.0;
@@ -477,13 +492,14 @@ fn attempt_solve(
                 } else {
                     let mut d = ws.jac[i].dot(&y);
                     if use_null {
-                        d += ws.z[i] - ws.jac[i].dot(&yz);
+                        d += (ws.z[i] - ws.jac[i].dot(&yz)) / factor;
                     }
                     d
                 };
                 dmax = dmax.max(ws.trial[i].abs());
             }
-            let scale = if dmax > s.max_step { s.max_step / dmax } else { 1.0 };
+            // In units of `factor`: the true step is factor·trial.
+            let scale = if dmax * factor > s.max_step { s.max_step / dmax } else { factor };
             for i in 0..n {
                 let d = ws.trial[i] * scale;
                 let at_lo = ws.q[i] <= ws.lo[i] && d < 0.0;

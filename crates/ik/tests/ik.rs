@@ -213,3 +213,18 @@ fn nullspace_objective_and_reproducible_restarts() {
     let b = solve(&arm, &far, &[0.0; 7], &s, &mut IkWorkspace::new(&arm)).unwrap();
     assert_eq!(a, b);
 }
+
+/// Targets so far away that the squared error overflows are not reached (issue 25, class 5:
+/// `ik --pos 1e300,0,0` reported converged with zero errors), and the errors say how far.
+#[test]
+fn astronomically_far_targets_are_not_converged() {
+    let arm = robots::arm7();
+    let mut ws = IkWorkspace::new(&arm);
+    for x in [1e300, -1e308, 1e155, 1e20] {
+        let target = Target { position: Vector3::new(x, 0.0, 0.0), orientation: None };
+        let r = solve(&arm, &target, &[0.0; 7], &IkSettings::default(), &mut ws).unwrap();
+        assert!(!r.converged, "{x}");
+        let rel = (r.position_error - x.abs()) / x.abs();
+        assert!(rel.abs() < 1e-6, "{x}: error {} m", r.position_error);
+    }
+}

@@ -74,7 +74,7 @@ pub struct Ocp {
 /// The named layer builds them from [`BetweenNodes`](crate::BetweenNodes) (see its example).
 ///
 /// # Errors
-/// [`Ptr::start`] returns [`PtrError::IntervalConstraint`] if `g` depends on the controls,
+/// [`Ptr::start`](crate::Ptr::start) returns [`PtrError::IntervalConstraint`](crate::PtrError::IntervalConstraint) if `g` depends on the controls,
 /// the segments are not within the problem's nodes or the activation distance is not
 /// positive.
 #[derive(Debug, Clone)]
@@ -122,7 +122,7 @@ pub struct NodalConstraint {
     /// What it says about `g`.
     pub kind: NodalKind,
     /// With [`NodalKind::Inequality`]: a name per entry of `g`, under which
-    /// [`PtrResult::violations`] reports the entry (entries that share a name, together).
+    /// [`PtrResult::violations`](crate::PtrResult::violations) reports the entry (entries that share a name, together).
     /// One vector constraint evaluates what its entries share once per node — the seed
     /// arm's collision pairs share the forward kinematics — where one constraint per entry
     /// would repeat it for each. Empty: the constraint is reported as one under `name` (as

@@ -40,9 +40,12 @@ fn io(e: std::io::Error) -> CliError {
 /// A bad run name; bridge failures (e.g. a publisher of another format version).
 pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
     if let Some(t) = args.timeout
-        && !(t.is_finite() && t > 0.0)
+        && !(t.is_finite() && t > 0.0 && t <= crate::streaming::MAX_WAIT_SECONDS)
     {
-        return Err(CliError::bad_input(format!("--timeout {t}: give seconds > 0")));
+        return Err(CliError::bad_input(format!(
+            "--timeout {t}: give seconds > 0 and at most {:e}",
+            crate::streaming::MAX_WAIT_SECONDS
+        )));
     }
     let sub = TrajectorySubscriber::new(&args.run, &BridgeSettings::default())
         .map_err(CliError::bad_input)?;

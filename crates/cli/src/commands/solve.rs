@@ -143,10 +143,13 @@ pub fn run_task(
     }
     let mut streamer = match &o.stream {
         Some(run) => {
-            if !(o.linger.is_finite() && o.linger >= 0.0) {
+            if !(o.linger.is_finite()
+                && (0.0..=crate::streaming::MAX_WAIT_SECONDS).contains(&o.linger))
+            {
                 return Err(CliError::bad_input(format!(
-                    "--linger {}: give seconds ≥ 0",
-                    o.linger
+                    "--linger {}: give seconds ≥ 0 and at most {:e}",
+                    o.linger,
+                    crate::streaming::MAX_WAIT_SECONDS
                 )));
             }
             let s = Streamer::new(run, &keypoints)

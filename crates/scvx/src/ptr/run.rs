@@ -2,6 +2,9 @@
 
 use super::*;
 
+/// Iteration records reserved when a solve starts (more grow the history as needed).
+const MAX_HISTORY_RESERVE: usize = 1024;
+
 impl Ptr {
     /// Runs PTR from the guess `(x, u, s)` (N×n, N×m, N) to the end: [`start`](Self::start),
     /// then [`step`](Self::step) until a step reports a final status.
@@ -116,7 +119,8 @@ impl Ptr {
         st.scale_objective = false;
         st.linearized = false;
         st.history.clear();
-        st.history.reserve(self.settings.max_iterations);
+        // Room for a typical solve; a huge cap must not reserve its whole history up front.
+        st.history.reserve(self.settings.max_iterations.min(MAX_HISTORY_RESERVE));
         st.status = None;
         st.ev.fgrid_reference = false;
         let prices = (&st.lam_vc[..], &st.lam_vb[..]);

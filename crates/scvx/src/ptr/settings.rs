@@ -28,7 +28,7 @@ pub struct PtrSettings {
     /// `ep_tr` is 1e-4). Against 1e-6: over the seed arm's wide settings grid (100 runs)
     /// 12 runs stop earlier and none later, 7 of them within 0.05 % of the same final time,
     /// 4 at 0.4–2.4 % above it and one at 8 %, all meeting the task; the random double
-    /// integrators reach the iteration cap once instead of 15 times (see the scvx README).
+    /// integrators reach the iteration cap once instead of 15 times (see the crate's BENCHMARKS.md).
     pub eps_tr: f64,
     /// Convergence: largest nonlinear defect. Default 1e-6.
     pub eps_defect: f64,
