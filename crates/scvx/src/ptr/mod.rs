@@ -39,33 +39,21 @@
 //!
 //! Why: a CTCS integral `∫ max(0, x_r − x_max)` guarantees the bound in continuous time, but
 //! where the trajectory touches the bound inside a segment its integrand is zero around the
-//! contact and so is its linearization. The subproblem then pushes through the bound, the
-//! merit rejects or shrinks the step, and a first-order loop creeps along the bound. On the
-//! seed arm, whose time-optimal velocities ride their limits inside segments, the peak rows
-//! take PTR from T = 1.553 s (a short-step stop after a run of such rejections) to 1.278 s,
-//! with iteration counts that no longer swing with every setting.
+//! contact and so is its linearization: the subproblem pushes through the bound, the merit
+//! rejects or shrinks the step, and a first-order loop creeps along the bound.
 //!
 //! [`Ocp::interval_constraints`] do the same for nonlinear state constraints `g(x) ≤ 0`: per
 //! segment and output, the peak of `g_o(x(t_j))` over the grid, refined the same way, and the
 //! row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o` ([`IntervalConstraint`]). The
-//! values are computed at every grid point, the Jacobians only at the stencils' points. On
-//! the seed's collision variant (clearances of every capsule pair, also as a ReLU CTCS
-//! integral and at the nodes) these rows take the default solve from 70 to 32 iterations
-//! and the median over the 3 × 3 settings neighbourhood from 95 to 56, to lower final times
-//! (1.432 s against 1.480 s at the default point): the integral's linearization switches on
-//! and off where the arm grazes the ball between two nodes, and the merit ratio of each step
-//! swung with it. Each row couples a segment's states, controls and dilation, so the
-//! subproblem's KKT factor grows (on the seed, about 27 % more nonzeros, 24 % more work).
+//! values are computed at every grid point, the Jacobians only at the stencils' points. Each
+//! row couples a segment's states, controls and dilation, so the KKT factor grows.
 //!
 //! With an activation distance ([`IntervalConstraint::activation`]) a segment's rows sit out
 //! of the subproblem while all its peaks lie further than that below the bound: their
 //! coefficients are zeroed, and the interior point, told which rows may be switched off,
 //! factors K without them (one analysis per set of switched-off rows, cached). Rows that far
 //! from their bound are slack, so the steps are nearly always the same; the merit still
-//! prices every peak, and the CTCS integral and the nodal rows still hold the segment. On
-//! the seed's collision variant (2 cm), only the segments where the arm passes the ball keep
-//! their rows — one at the end — and the solve does 12 % fewer instructions on the same
-//! iterates.
+//! prices every peak, and the CTCS integral and the nodal rows still hold the segment.
 //!
 //! # Acceptance
 //! By default ([`TrustRegionUpdate::Adaptive`]) the merit
@@ -76,18 +64,16 @@
 //! ([`TrustRegionUpdate::Constant`]) accepts every step. A row whose subproblem bought virtual
 //! control (or a buffer) gets a doubled price — the ℓ1 penalty is exact only above the
 //! multiplier. Converged when an accepted step has `‖Δz‖²_S < ε_tr`, the largest nonlinear
-//! defect is below `ε_defect` and the largest nodal violation below `ε_vb`.
+//! defect is below `ε_defect` and the largest nodal violation below `ε_vb` (the named layer
+//! then checks the dense trajectory).
 //!
 //! A short step is not a stationary point: with a heavy λ_tr the step is short while the
-//! Lagrangian's gradient (≈ 2λ_tr·S⁻²Δz at the subproblem's optimum) is not small. On the
-//! seed arm the first-order loop stops at T = 1.553 s; run on with ε_tr = 1e-12 it is still
-//! creeping down (1.426 s after 400 iterations). [`PtrSettings::quasi_newton`] adds a damped
-//! BFGS model of the Lagrangian's Hessian per segment (`P` gains one dense block per segment
-//! over the columns where the segment's rows are nonlinear; the pairs are
-//! `s = z − z̄`, `y = (A(z) − A(z̄))ᵀλ` with the subproblem's duals λ), and
-//! [`Merit::Lagrangian`] prices a defect by its dual instead of its full ℓ1 weight; together
-//! they reach T = 1.268 s on the same problem. [`Ocp::interval_bounds`] on the velocities
-//! (see "Interval bounds" above) takes the first-order loop itself to T = 1.278 s.
+//! Lagrangian's gradient (≈ 2λ_tr·S⁻²Δz at the subproblem's optimum) is not small.
+//! [`PtrSettings::quasi_newton`] adds a damped BFGS model of the Lagrangian's Hessian per
+//! segment (`P` gains one dense block per segment over the columns where the segment's rows
+//! are nonlinear; the pairs are `s = z − z̄`, `y = (A(z) − A(z̄))ᵀλ` with the subproblem's
+//! duals λ), and [`Merit::Lagrangian`] prices a defect by its dual instead of its full ℓ1
+//! weight. What each of these does on the seed, measured, is in the crate's BENCHMARKS.md.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
