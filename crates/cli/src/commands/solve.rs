@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use armature_bridge::{BridgeError, Status};
-use armature_scvx::{IterationTable, PtrStatus};
+use armature_scvx::{IterationTable, PtrStatus, Solution};
 use clap::Args;
 
 use crate::output::ResultFile;
@@ -97,32 +97,22 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     Ok(Loaded { plan: Some(plan), compiled, keypoints })
 }
 
-/// Plans, solves and writes the outputs of one task.
-///
-/// # Errors
-/// As [`run`].
-pub fn run_task(
-    src: Source<'_>,
-    path: Option<&Path>,
-    o: &OutputArgs,
-    out: &mut dyn std::io::Write,
-) -> Result<(), CliError> {
-    let t0 = Instant::now();
-    let say = |line: &str| {
-        if !o.quiet {
-            // A closed standard error (`2>&1 | head`) must not stop the solve or the writing
-            // of its results: progress lines are best effort.
-            let _ = writeln!(std::io::stderr(), "{line}");
-        }
-    };
-    let loaded = load(src, path)?;
-    let Loaded { plan, mut compiled, keypoints } = loaded;
-    match &plan {
+/// Prints a progress line unless quiet. A closed standard error (`2>&1 | head`) must not
+/// stop the solve or the writing of its results: progress lines are best effort.
+fn say(quiet: bool, line: &str) {
+    if !quiet {
+        let _ = writeln!(std::io::stderr(), "{line}");
+    }
+}
+
+/// The first line: what was loaded.
+fn describe(name: &str, loaded: &mut Loaded) -> String {
+    match &loaded.plan {
         Some(plan) => {
             let converged_ik = plan.ik.nodes.iter().filter(|r| r.converged).count();
-            say(&format!(
+            format!(
                 "{}: {} joints, {} nodes, {} waypoints{}; IK initialization: {converged_ik}/{} nodes converged, largest joint step {:.3} rad",
-                src.name,
+                name,
                 plan.chain.dof(),
                 plan.nodes,
                 plan.waypoints.len(),
@@ -131,47 +121,57 @@ pub fn run_task(
                     .map_or(String::new(), |m| format!(", {} collision pairs", m.pairs().len())),
                 plan.nodes,
                 plan.ik.max_joint_step
-            ));
+            )
         }
-        None => say(&format!(
-            "{}: problem file, {} states, {} controls, {} nodes",
-            src.name,
-            compiled.ptr().ocp().dynamics.n_x(),
-            compiled.ptr().ocp().dynamics.n_u(),
-            compiled.ptr().ocp().nodes
-        )),
+        None => {
+            let ocp = loaded.compiled.ptr().ocp();
+            format!(
+                "{name}: problem file, {} states, {} controls, {} nodes",
+                ocp.dynamics.n_x(),
+                ocp.dynamics.n_u(),
+                ocp.nodes
+            )
+        }
     }
-    let mut streamer = match &o.stream {
-        Some(run) => {
-            if !(o.linger.is_finite()
-                && (0.0..=crate::streaming::MAX_WAIT_SECONDS).contains(&o.linger))
-            {
-                return Err(CliError::bad_input(format!(
-                    "--linger {}: give seconds ≥ 0 and at most {:e}",
-                    o.linger,
-                    crate::streaming::MAX_WAIT_SECONDS
-                )));
-            }
-            let s = Streamer::new(run, &keypoints)
-                .map_err(|e| CliError::bad_input(format!("--stream: {e}")))?;
-            say(&format!("streaming on armature/{run}/trajectory and armature/{run}/progress"));
-            Some(s)
-        }
-        None => None,
-    };
-    if !o.quiet {
+}
+
+/// The publisher of `--stream RUN`, if asked for (with `--linger` checked first).
+fn start_stream(o: &OutputArgs, keypoints: &[String]) -> Result<Option<Streamer>, CliError> {
+    let Some(run) = &o.stream else { return Ok(None) };
+    let max = crate::streaming::MAX_WAIT_SECONDS;
+    if !(o.linger.is_finite() && (0.0..=max).contains(&o.linger)) {
+        return Err(CliError::bad_input(format!(
+            "--linger {}: give seconds ≥ 0 and at most {max:e}",
+            o.linger
+        )));
+    }
+    let s =
+        Streamer::new(run, keypoints).map_err(|e| CliError::bad_input(format!("--stream: {e}")))?;
+    say(o.quiet, &format!("streaming on armature/{run}/trajectory and armature/{run}/progress"));
+    Ok(Some(s))
+}
+
+/// Solves, printing the iteration table, collecting the iterates the view draws and
+/// publishing each iterate and then the dense trajectory when streaming.
+fn solve_observed(
+    loaded: &mut Loaded,
+    streamer: &mut Option<Streamer>,
+    quiet: bool,
+) -> Result<(Solution, Vec<Iterate>), CliError> {
+    if !quiet {
         let _ = IterationTable::header(&mut std::io::stderr());
     }
-    let quiet = o.quiet;
-    let layout = compiled.layout().clone();
+    let layout = loaded.compiled.layout().clone();
     let mut stream_error = None;
-    let mut iterates: Vec<Iterate> = plan.as_ref().map(guess_iterate).into_iter().collect();
-    let solution = compiled
+    let task = loaded.plan.is_some();
+    let mut iterates: Vec<Iterate> = loaded.plan.as_ref().map(guess_iterate).into_iter().collect();
+    let solution = loaded
+        .compiled
         .solve_with(|it, traj| {
             if !quiet {
                 let _ = IterationTable::row(&mut std::io::stderr(), it);
             }
-            if plan.is_some()
+            if task
                 && let Ok(tables) = layout.nodal_tables(traj)
                 && let Some(ee) = tables.get("ee_position")
             {
@@ -196,24 +196,26 @@ pub fn run_task(
         })
         .map_err(CliError::bad_input)?;
     if let Some(s) = streamer.as_mut() {
-        let status = wire_status(solution.status);
         let sent = match stream_error.take() {
             Some(e) => Err(e),
             None => s
                 .publish(
                     &solution.trajectory,
                     solution.iterations as u64,
-                    status,
+                    wire_status(solution.status),
                     solution.final_time,
                     true,
                 )
                 .map(|_| ()),
         };
-        if let Err(e) = sent {
-            return Err(CliError { message: format!("--stream: {e}"), code: exit::IO });
-        }
+        sent.map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
     }
-    say(&format!(
+    Ok((solution, iterates))
+}
+
+/// The summary lines: outcome and timings, and the largest violation.
+fn summary(solution: &Solution, t0: Instant) -> Vec<String> {
+    let mut lines = vec![format!(
         "{}: final time {:.4} s after {} iterations; solve {:.1} ms (discretization {:.1}, subproblems {:.1}), dense propagation {:.1} ms ({} samples); total {:.1} ms",
         solution.status,
         solution.final_time,
@@ -224,36 +226,41 @@ pub fn run_task(
         solution.timings.post_processing_ms,
         solution.trajectory["time"].len(),
         t0.elapsed().as_secs_f64() * 1e3
-    ));
+    )];
     if let Some(v) = &solution.max_violation {
         let at = match (v.time, v.node) {
             (Some(t), Some(k)) => format!(" at t = {t:.3} s (segment {k})"),
             (None, Some(k)) => format!(" at node {k}"),
             _ => String::new(),
         };
-        say(&format!("largest violation: {} = {:.3e}{at}", v.constraint, v.value));
+        lines.push(format!("largest violation: {} = {:.3e}{at}", v.constraint, v.value));
     }
-    let scene = plan.as_ref().map(Scene::from_plan);
-    let result = ResultFile { solution: &solution, scene: scene.as_ref(), iterates: &iterates };
+    lines
+}
+
+/// Writes what `o` asks for: JSON, CSV, plots, the 3D view.
+fn write_outputs(
+    o: &OutputArgs,
+    (name, plan): (&str, Option<&crate::pipeline::Plan>),
+    solution: &Solution,
+    iterates: Vec<Iterate>,
+    out: &mut dyn std::io::Write,
+) -> Result<Vec<PathBuf>, CliError> {
+    let scene = plan.map(Scene::from_plan);
+    let result = ResultFile { solution, scene: scene.as_ref(), iterates: &iterates };
     let mut written = output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out)?;
     if let Some(dir) = &o.plot {
-        written.extend(crate::plot::write_plots(plan.as_ref(), &solution, dir)?);
+        written.extend(crate::plot::write_plots(plan, solution, dir)?);
     }
     if let Some(path) = &o.html {
-        let data = ViewData::from_solution(src.name, &solution, scene, iterates);
+        let data = ViewData::from_solution(name, solution, scene, iterates);
         written.push(output::write_html(&data, path)?);
     }
-    for p in &written {
-        say(&format!("wrote {}", p.display()));
-    }
-    // Last: serve late subscribers (the summary and the files are already out).
-    if let Some(s) = &streamer
-        && o.linger > 0.0
-    {
-        say(&format!("serving the final trajectory for {} s", o.linger));
-        s.linger(o.linger)
-            .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
-    }
+    Ok(written)
+}
+
+/// Success, or the not-converged error saying why.
+fn outcome(solution: &Solution) -> Result<(), CliError> {
     if solution.converged() {
         return Ok(());
     }
@@ -267,6 +274,39 @@ pub fn run_task(
         (status, _) => format!("the solve stopped without converging: {status}"),
     };
     Err(CliError { message, code: exit::NOT_CONVERGED })
+}
+
+/// Plans, solves and writes the outputs of one task.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_task(
+    src: Source<'_>,
+    path: Option<&Path>,
+    o: &OutputArgs,
+    out: &mut dyn std::io::Write,
+) -> Result<(), CliError> {
+    let t0 = Instant::now();
+    let mut loaded = load(src, path)?;
+    say(o.quiet, &describe(src.name, &mut loaded));
+    let mut streamer = start_stream(o, &loaded.keypoints)?;
+    let (solution, iterates) = solve_observed(&mut loaded, &mut streamer, o.quiet)?;
+    for line in summary(&solution, t0) {
+        say(o.quiet, &line);
+    }
+    let written = write_outputs(o, (src.name, loaded.plan.as_ref()), &solution, iterates, out)?;
+    for p in &written {
+        say(o.quiet, &format!("wrote {}", p.display()));
+    }
+    // Last: serve late subscribers (the summary and the files are already out).
+    if let Some(s) = &streamer
+        && o.linger > 0.0
+    {
+        say(o.quiet, &format!("serving the final trajectory for {} s", o.linger));
+        s.linger(o.linger)
+            .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
+    }
+    outcome(&solution)
 }
 
 /// The initial guess as an iterate: the end effector at the IK configurations of the nodes.
