@@ -11,6 +11,7 @@ pub mod output;
 pub mod pipeline;
 pub mod plot;
 pub mod problem_file;
+pub mod settings;
 pub mod streaming;
 pub mod task;
 pub mod view;

@@ -323,7 +323,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             ));
         }
     };
-    let settings = settings(&task.settings, src)?;
+    let settings = crate::settings::checked(&task.settings, src)?;
     // The IK guess, time-parameterized by a spline (zero end velocities).
     let ik = ik_interpolation(
         &chain,
@@ -468,126 +468,6 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         ik,
         settings,
     })
-}
-
-/// Algorithm settings of a task or problem file over the defaults.
-///
-/// # Errors
-/// An unusable value, located in the file.
-pub fn settings(
-    s: &crate::task::SettingsSpec,
-    src: Source<'_>,
-) -> Result<PtrSettings, LocatedError> {
-    let mut p = PtrSettings::default();
-    if let Some(v) = s.max_iterations {
-        p.max_iterations = v;
-    }
-    if let Some(v) = s.substeps {
-        p.discretization.substeps = v;
-    }
-    if let Some(v) = s.eps_tr {
-        p.eps_tr = v;
-    }
-    if let Some(v) = s.eps_defect {
-        p.eps_defect = v;
-    }
-    if let Some(v) = s.eps_vb {
-        p.eps_vb = v;
-    }
-    if let Some(v) = s.lam_tr {
-        p.lam_tr = v;
-        p.lam_tr_min = p.lam_tr_min.min(v);
-        p.lam_tr_max = p.lam_tr_max.max(v);
-    }
-    if let Some(v) = s.lam_vc {
-        p.lam_vc = v;
-        p.lam_vc_max = p.lam_vc_max.max(v);
-    }
-    if let Some(v) = s.lam_vb {
-        p.lam_vb = v;
-        p.lam_vc_max = p.lam_vc_max.max(v);
-    }
-    if let Some(i) = &s.integrator {
-        p.discretization.integrator = match i.get_ref().as_str() {
-            "rk4" => armature_scvx::Integrator::Rk4,
-            "dormand_prince" => armature_scvx::Integrator::DormandPrince {
-                rtol: s.rtol.unwrap_or(1e-8),
-                atol: s.atol.unwrap_or(1e-10),
-            },
-            other => {
-                return Err(src.error(
-                    i,
-                    format!("integrator '{other}': give \"rk4\" or \"dormand_prince\""),
-                ));
-            }
-        };
-    }
-    if let Some(t) = &s.trust_region {
-        p.trust_region = match t.get_ref().as_str() {
-            "adaptive" => PtrSettings::default().trust_region,
-            "constant" => armature_scvx::TrustRegionUpdate::Constant,
-            other => {
-                return Err(src.error(
-                    t,
-                    format!("trust_region '{other}': give \"adaptive\" or \"constant\""),
-                ));
-            }
-        };
-    }
-    if let Some(q) = s.quasi_newton {
-        p.quasi_newton = q;
-    }
-    let sigma = s.merit_sigma.as_ref().map_or(0.5, |v| *v.get_ref());
-    if let Some(v) = &s.merit_sigma
-        && !(0.0..=1.0).contains(&sigma)
-    {
-        return Err(src.error(v, format!("merit_sigma {sigma} must lie in [0, 1]")));
-    }
-    if let Some(m) = &s.merit {
-        p.merit = match m.get_ref().as_str() {
-            "exact_penalty" => armature_scvx::Merit::ExactPenalty,
-            "lagrangian" => armature_scvx::Merit::Lagrangian { sigma },
-            other => {
-                return Err(src.error(
-                    m,
-                    format!("merit '{other}': give \"exact_penalty\" or \"lagrangian\""),
-                ));
-            }
-        };
-    }
-    if let Some(v) = &s.merit_sigma
-        && !matches!(p.merit, armature_scvx::Merit::Lagrangian { .. })
-    {
-        return Err(src.error(v, "merit_sigma applies only with merit = \"lagrangian\""));
-    }
-    if let Some(v) = &s.subproblem_solver {
-        p.subproblem.solver = match v.get_ref().as_str() {
-            "interior_point" => armature_scvx::SubproblemSolver::InteriorPoint,
-            "clarabel" => armature_scvx::SubproblemSolver::Clarabel,
-            other => {
-                return Err(src.error(
-                    v,
-                    format!("subproblem_solver '{other}': give \"interior_point\" or \"clarabel\""),
-                ));
-            }
-        };
-    }
-    if let Some(dt) = &s.dense_dt {
-        p.dense_dt = *dt.get_ref();
-        if !(p.dense_dt.is_finite() && p.dense_dt > 0.0) {
-            return Err(src.error(dt, format!("dense_dt {} must be > 0", p.dense_dt)));
-        }
-    }
-    if let Some(tol) = &s.dense_tolerance {
-        p.dense_tolerance = *tol.get_ref();
-        if !(p.dense_tolerance.is_finite() && p.dense_tolerance > 0.0) {
-            return Err(
-                src.error(tol, format!("dense_tolerance {} must be > 0", p.dense_tolerance))
-            );
-        }
-    }
-    p.validate().map_err(|e| src.error_at(0, format!("[settings]: {e}")))?;
-    Ok(p)
 }
 
 impl Plan {

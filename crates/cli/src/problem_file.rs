@@ -52,7 +52,7 @@ use armature_symbolic::{Expr, Shape, SymbolTable, SymbolicError, parse_constrain
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::task::{LocatedError, SettingsSpec, Source};
+use crate::task::{LocatedError, Source};
 
 /// A parsed problem file.
 #[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
@@ -85,9 +85,9 @@ pub struct ProblemFile {
     /// Also enforce state bounds between nodes (ReLU CTCS, ε = 1e-6). Default true.
     #[serde(default = "yes")]
     pub state_bounds_ctcs: bool,
-    /// Algorithm settings.
+    /// Algorithm settings ([`armature_scvx::PtrSettings`]; every key optional).
     #[serde(default)]
-    pub settings: SettingsSpec,
+    pub settings: armature_scvx::PtrSettings,
 }
 
 fn yes() -> bool {
@@ -537,7 +537,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         (Some(t), Some(_)) => return Err(src.error(t, "give either fixed or max, not both")),
         (None, None) => return Err(src.error(&file.nodes, "[time] needs fixed or max")),
     };
-    let settings = crate::pipeline::settings(&file.settings, src)?;
+    let settings = crate::settings::checked(&file.settings, src)?;
     let problem = Problem {
         nodes,
         states,

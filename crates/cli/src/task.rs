@@ -27,6 +27,13 @@
 //! to = "place"
 //!
 //! table_height = 0.0             # the end effector stays above z = table_height
+//!
+//! [settings]                     # armature_scvx::PtrSettings, every field optional
+//! max_iterations = 200
+//! merit = { lagrangian = { sigma = 0.5 } }   # or "exact_penalty" (default)
+//!
+//! [settings.subproblem]          # nested settings are sub-tables
+//! solver = "interior_point"      # or "clarabel"
 //! ```
 //!
 //! Unknown keys are rejected; every error names `file:line:col` and the reason.
@@ -64,9 +71,9 @@ pub struct TaskFile {
     /// Initial guess.
     #[serde(default)]
     pub initialization: InitSpec,
-    /// Algorithm settings.
+    /// Algorithm settings ([`armature_scvx::PtrSettings`]; every key optional).
     #[serde(default)]
-    pub settings: SettingsSpec,
+    pub settings: armature_scvx::PtrSettings,
 }
 
 /// The robot: kinematics and simple dynamics `q̈ = τ / I`.
@@ -343,79 +350,6 @@ fn sequential() -> Spanned<String> {
 
 fn eight() -> usize {
     8
-}
-
-/// Algorithm settings (a subset of `armature_scvx::PtrSettings`; the rest keep defaults).
-#[derive(Debug, Clone, Default, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct SettingsSpec {
-    /// SCvx iteration cap.
-    #[serde(default)]
-    pub max_iterations: Option<usize>,
-    /// RK4 steps per segment.
-    #[serde(default)]
-    pub substeps: Option<usize>,
-    /// Dense propagation step (s).
-    #[serde(default)]
-    #[schemars(with = "Option<f64>")]
-    pub dense_dt: Option<Spanned<f64>>,
-    /// Largest violation of a continuous-time constraint on the dense trajectory that a
-    /// converged solve may keep (default 1e-4).
-    #[serde(default)]
-    #[schemars(with = "Option<f64>")]
-    pub dense_tolerance: Option<Spanned<f64>>,
-    /// Convergence tolerance of the trust-region step.
-    #[serde(default)]
-    pub eps_tr: Option<f64>,
-    /// Convergence tolerance of the dynamics defects.
-    #[serde(default)]
-    pub eps_defect: Option<f64>,
-    /// Convergence tolerance of nodal constraint violations.
-    #[serde(default)]
-    pub eps_vb: Option<f64>,
-    /// Trust-region policy: `"adaptive"` (default; accept/reject by the merit ratio) or
-    /// `"constant"` (the published PTR: every step accepted, λ_tr fixed).
-    #[serde(default)]
-    #[schemars(with = "Option<String>")]
-    pub trust_region: Option<Spanned<String>>,
-    /// Initial trust-region weight λ_tr.
-    #[serde(default)]
-    pub lam_tr: Option<f64>,
-    /// Initial virtual-control weight λ_vc.
-    #[serde(default)]
-    pub lam_vc: Option<f64>,
-    /// Initial virtual-buffer weight λ_vb.
-    #[serde(default)]
-    pub lam_vb: Option<f64>,
-    /// Integrator: `"rk4"` (fixed steps, default) or `"dormand_prince"` (adaptive, with
-    /// `rtol` and `atol`).
-    #[serde(default)]
-    #[schemars(with = "Option<String>")]
-    pub integrator: Option<Spanned<String>>,
-    /// Relative tolerance of the adaptive integrator. Default 1e-8.
-    #[serde(default)]
-    pub rtol: Option<f64>,
-    /// Absolute tolerance of the adaptive integrator. Default 1e-10.
-    #[serde(default)]
-    pub atol: Option<f64>,
-    /// Add a partitioned quasi-Newton (BFGS) model of the Lagrangian's Hessian to each
-    /// subproblem. Default false.
-    #[serde(default)]
-    pub quasi_newton: Option<bool>,
-    /// Merit of the step acceptance: `"exact_penalty"` (default) or `"lagrangian"` (defects
-    /// priced by the dynamics duals, with `merit_sigma` of the ℓ1 price kept).
-    #[serde(default)]
-    #[schemars(with = "Option<String>")]
-    pub merit: Option<Spanned<String>>,
-    /// Fraction σ ∈ [0, 1] of the ℓ1 price kept by the Lagrangian merit. Default 0.5.
-    #[serde(default)]
-    #[schemars(with = "Option<f64>")]
-    pub merit_sigma: Option<Spanned<f64>>,
-    /// Solver of the convex subproblems: `"interior_point"` (default: armature's
-    /// warm-started interior point, Clarabel as its fallback) or `"clarabel"`.
-    #[serde(default)]
-    #[schemars(with = "Option<String>")]
-    pub subproblem_solver: Option<Spanned<String>>,
 }
 
 /// An error located in a file.

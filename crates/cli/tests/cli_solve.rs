@@ -223,16 +223,27 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "table_height = 0.0   # m; the end effector stays above it\n[collision]\nactivation = 0.0\nlinks = [{ start = \"base\", end = \"elbow\", radius = 0.05 }]",
         "activation 0 must be > 0",
     );
-    let solver = "subproblem_solver = \"interior_point\"";
-    bad("merit", solver, "merit = \"newton\"", "merit 'newton'");
+    let s = "[settings]\n";
+    bad("merit", s, "[settings]\nmerit = \"newton\"\n", "unknown variant `newton`");
     bad(
         "merit-sigma",
-        solver,
-        "merit_sigma = 2.0\nquasi_newton = true\nmerit = \"lagrangian\"",
-        "must lie in [0, 1]",
+        s,
+        "[settings]\nmerit = { lagrangian = { sigma = 2.0 } }\nquasi_newton = true\n",
+        "merit.lagrangian.sigma must lie in [0, 1]",
     );
-    bad("merit-sigma-alone", solver, "merit_sigma = 0.2", "merit_sigma applies only with merit");
-    bad("subproblem-solver", solver, "subproblem_solver = \"osqp\"", "subproblem_solver 'osqp'");
+    bad(
+        "subproblem-solver",
+        s,
+        "[settings]\nsubproblem = { solver = \"osqp\" }\n",
+        "unknown variant `osqp`",
+    );
+    bad(
+        "interior-point-cap",
+        s,
+        "[settings]\nsubproblem = { interior_point = { max_iterations = 0 } }\n",
+        "subproblem.interior_point.max_iterations must be at least 1",
+    );
+    bad("settings-key", s, "[settings]\nsubstep = 4\n", "unknown field `substep`");
 }
 
 #[test]

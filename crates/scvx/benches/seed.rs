@@ -9,7 +9,7 @@
 #[path = "../tests/seed/mod.rs"]
 mod seed;
 
-use armature_scvx::{Merit, Ptr, PtrSettings, SubproblemSettings, SubproblemSolver};
+use armature_scvx::{Merit, Ptr, PtrSettings, SubproblemSolver};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -33,21 +33,20 @@ fn bench(c: &mut Criterion) {
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
-    let qn = PtrSettings {
-        quasi_newton: true,
-        merit: Merit::Lagrangian { sigma: 0.5 },
-        ..PtrSettings::default()
+    let qn = {
+        let mut s = PtrSettings::default();
+        s.quasi_newton = true;
+        s.merit = Merit::Lagrangian { sigma: 0.5 };
+        s
     };
     let mut ptr_qn = Ptr::new(s.ocp.clone(), qn);
     g.bench_function("solve_quasi_newton", |b| {
         b.iter(|| black_box(ptr_qn.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
-    let clarabel = PtrSettings {
-        subproblem: SubproblemSettings {
-            solver: SubproblemSolver::Clarabel,
-            ..SubproblemSettings::default()
-        },
-        ..PtrSettings::default()
+    let clarabel = {
+        let mut s = PtrSettings::default();
+        s.subproblem.solver = SubproblemSolver::Clarabel;
+        s
     };
     let mut ptr_n = Ptr::new(s.ocp.clone(), clarabel.clone());
     g.bench_function("solve_clarabel", |b| {

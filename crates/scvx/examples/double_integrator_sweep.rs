@@ -45,7 +45,11 @@ fn main() {
         ocp.x_final = vec![Some(d), Some(0.0)];
         let x: Vec<f64> =
             (0..nodes).flat_map(|k| [d * k as f64 / (nodes - 1) as f64, 0.0]).collect();
-        let mut settings = PtrSettings { lam_tr, ..PtrSettings::default() };
+        let mut settings = {
+            let mut s = PtrSettings::default();
+            s.lam_tr = lam_tr;
+            s
+        };
         match mode.as_str() {
             "published" => {
                 settings.trust_region = TrustRegionUpdate::Constant;

@@ -14,7 +14,7 @@
 #[path = "../tests/seed/mod.rs"]
 mod seed;
 
-use armature_scvx::{DiscretizationSettings, Merit, Ptr, PtrSettings, PtrStatus};
+use armature_scvx::{Merit, Ptr, PtrSettings, PtrStatus};
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -48,10 +48,11 @@ fn main() {
     for &lam_tr in weights {
         for &substeps in substeps {
             for (v, (&(collision, _), s)) in variants.iter().zip(&seeds).enumerate() {
-                let mut settings = PtrSettings {
-                    lam_tr,
-                    discretization: DiscretizationSettings { substeps, ..Default::default() },
-                    ..PtrSettings::default()
+                let mut settings = {
+                    let mut s = PtrSettings::default();
+                    s.lam_tr = lam_tr;
+                    s.discretization.substeps = substeps;
+                    s
                 };
                 if has("lagrangian") || has("qn") {
                     settings.merit = Merit::Lagrangian { sigma: 0.5 };

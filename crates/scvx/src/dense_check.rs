@@ -8,7 +8,7 @@
 
 use armature_symbolic::Function;
 
-use crate::{DenseTrajectory, ProblemError, Violation};
+use crate::{ConstraintRef, DenseTrajectory, ProblemError, Violation};
 
 /// A vector function `g(x, u) ≤ 0` held from node `first` to node `last`.
 #[derive(Debug, Clone)]
@@ -65,7 +65,8 @@ impl DenseChecks {
                 let v = x(j)[b.row];
                 (if v.is_nan() { f64::INFINITY } else { (v - b.max).max(b.min - v).max(0.0) }, j)
             });
-            out.push(violation(format!("bounds of {} (dense)", b.name), worst(excess), dense));
+            let name = format!("bounds of {}", b.name);
+            out.push(violation(ConstraintRef::Dense { name }, worst(excess), dense));
         }
         let mut input = vec![0.0; n + m];
         for c in &self.paths {
@@ -94,13 +95,17 @@ impl DenseChecks {
                 };
                 best = worst(best.into_iter().chain(std::iter::once((v, j))));
             }
-            out.push(violation(format!("{} (dense)", c.name), best, dense));
+            out.push(violation(ConstraintRef::Dense { name: c.name.clone() }, best, dense));
         }
         Ok(out)
     }
 }
 
-fn violation(constraint: String, w: Option<(f64, usize)>, dense: &DenseTrajectory) -> Violation {
+fn violation(
+    constraint: ConstraintRef,
+    w: Option<(f64, usize)>,
+    dense: &DenseTrajectory,
+) -> Violation {
     let (value, j) = w.unwrap_or((0.0, 0));
     Violation {
         constraint,

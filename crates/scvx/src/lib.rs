@@ -20,8 +20,8 @@ pub use problem::{
     ProblemConstraint, ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
 };
 pub use ptr::{
-    IntervalConstraint, Iteration, IterationTable, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
-    PtrError, PtrResult, PtrSettings, PtrStatus, SettingsError, SubproblemDimensions,
-    SubproblemSettings, SubproblemSolver, SubproblemStatus, Timings, Trajectory, TrustRegionUpdate,
-    Violation,
+    ClarabelSettings, ConstraintRef, IntervalConstraint, Iteration, IterationTable, Merit,
+    NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
+    SettingsError, SubproblemDimensions, SubproblemSettings, SubproblemSolver, SubproblemStatus,
+    Timings, Trajectory, TrustRegionUpdate, Violation,
 };

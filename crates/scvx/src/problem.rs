@@ -31,12 +31,10 @@
 //!     time: Time::Free { min: 0.0, max: 10.0, guess: 3.0, minimize: true },
 //!     ..Problem::new(21)
 //! };
-//! let settings = PtrSettings {
-//!     trust_region: armature_scvx::TrustRegionUpdate::Constant,
-//!     lam_vc: 1e2,
-//!     eps_tr: 1e-4,
-//!     ..PtrSettings::default()
-//! };
+//! let mut settings = PtrSettings::default();
+//! settings.trust_region = armature_scvx::TrustRegionUpdate::Constant;
+//! settings.lam_vc = 1e2;
+//! settings.eps_tr = 1e-4;
 //! let mut compiled = problem.compile(settings).unwrap();
 //! let solution = compiled.solve().unwrap();
 //! assert_eq!(solution.status, armature_scvx::PtrStatus::Converged);
@@ -62,9 +60,9 @@ pub use variables::{Boundary, Control, State, Time};
 
 use crate::dense_check::{BoundCheck, DenseChecks, PathCheck};
 use crate::{
-    CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration, NodalConstraint,
-    NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, Trajectory,
-    Violation, ctcs_states,
+    ConstraintRef, CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration,
+    NodalConstraint, NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
+    Trajectory, Violation, ctcs_states,
 };
 
 /// Largest node count a [`Problem`] accepts (the subproblem grows linearly with it; this
@@ -271,8 +269,10 @@ struct Block {
 #[derive(Debug)]
 pub struct CompiledProblem {
     ptr: Ptr,
-    /// `(internal state name, what its integral carries)` per CTCS group.
+    /// `(integral's state name, what it carries)` per CTCS group; group i's integral is state
+    /// row `ctcs_row0 + i`.
     ctcs_names: Vec<(String, String)>,
+    ctcs_row0: usize,
     /// The continuous-time constraints checked on the dense trajectory.
     dense_checks: DenseChecks,
     settings: PtrSettings,
@@ -281,7 +281,7 @@ pub struct CompiledProblem {
 }
 
 impl CompiledProblem {
-    /// The continuous-time (CTCS) integrals: `(internal state name, what it carries)`.
+    /// The continuous-time (CTCS) integrals: `(the integral's state name, what it carries)`.
     pub fn ctcs_groups(&self) -> &[(String, String)] {
         &self.ctcs_names
     }
@@ -438,13 +438,15 @@ impl CompiledProblem {
             .propagate_dense(&r.x[..n], &r.u, &r.s, self.settings.dense_dt)
             .map_err(PtrError::from)?;
         let nodes = self.layout.tables(&node_times, &r.x, &r.u)?;
-        // Violations of the CTCS integrals named by what they carry.
+        // The defects of the CTCS integrals are the violations of what they carry.
         let rename = |v: &Violation| {
             let mut v = v.clone();
-            if let Some((_, name)) =
-                self.ctcs_names.iter().find(|(internal, _)| *internal == v.constraint)
+            if let ConstraintRef::Dynamics { state, .. } = v.constraint
+                && let Some(group) = state.checked_sub(self.ctcs_row0)
+                && let Some((_, description)) = self.ctcs_names.get(group)
             {
-                v.constraint.clone_from(name);
+                v.constraint =
+                    ConstraintRef::Continuous { group, description: description.clone() };
             }
             v
         };

@@ -25,17 +25,22 @@ fn analytic(xf: f64, yf: f64) -> f64 {
 
 #[test]
 fn brachistochrone_matches_the_cycloid() {
-    check(PtrSettings { max_iterations: 200, ..PtrSettings::default() });
+    check({
+        let mut s = PtrSettings::default();
+        s.max_iterations = 200;
+        s
+    });
 }
 
 /// The same with the quasi-Newton model and the Lagrangian merit.
 #[test]
 fn brachistochrone_matches_the_cycloid_with_quasi_newton() {
-    check(PtrSettings {
-        max_iterations: 200,
-        quasi_newton: true,
-        merit: Merit::Lagrangian { sigma: 0.5 },
-        ..PtrSettings::default()
+    check({
+        let mut s = PtrSettings::default();
+        s.max_iterations = 200;
+        s.quasi_newton = true;
+        s.merit = Merit::Lagrangian { sigma: 0.5 };
+        s
     });
 }
 

@@ -57,13 +57,21 @@ fn the_tolerance_decides_and_a_loose_one_lets_the_same_solve_converge() {
     let excess = fastest(&strict) - V_MAX;
     assert!(excess > 1e-4, "6 nodes keep the limit: the test needs an overshoot ({excess})");
     assert_eq!(strict.status, PtrStatus::ViolatedBetweenNodes);
-    let loose = PtrSettings { dense_tolerance: 2.0 * excess, ..PtrSettings::default() };
+    let loose = {
+        let mut s = PtrSettings::default();
+        s.dense_tolerance = 2.0 * excess;
+        s
+    };
     let s = problem(6).compile(loose).unwrap().solve().unwrap();
     assert_eq!(s.status, PtrStatus::Converged);
     assert_eq!((s.final_time, s.iterations), (strict.final_time, strict.iterations));
     // Not a usable tolerance.
     for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let settings = PtrSettings { dense_tolerance: bad, ..PtrSettings::default() };
+        let settings = {
+            let mut s = PtrSettings::default();
+            s.dense_tolerance = bad;
+            s
+        };
         assert!(problem(6).compile(settings).is_err(), "{bad}");
     }
 }

@@ -112,7 +112,11 @@ fn double_integrator_is_exact() {
             &x,
             &u,
             &s,
-            &DiscretizationSettings { substeps, ..Default::default() },
+            &{
+                let mut s = DiscretizationSettings::default();
+                s.substeps = substeps;
+                s
+            },
             &mut ws,
             &mut out,
         )
@@ -235,7 +239,11 @@ fn parallel_and_serial_discretization_agree_bitwise() {
         let s: Vec<f64> = (0..nodes).map(|k| 1.0 + 0.1 * k as f64).collect();
         let mut outs = Vec::new();
         for parallel in [false, true] {
-            let settings = DiscretizationSettings { parallel, ..Default::default() };
+            let settings = {
+                let mut s = DiscretizationSettings::default();
+                s.parallel = parallel;
+                s
+            };
             let mut ws = d.workspace();
             let mut out = d.output(nodes);
             d.discretize(&x, &u, &s, &settings, &mut ws, &mut out).unwrap();
@@ -270,9 +278,10 @@ fn defects_alone_equal_the_full_discretization_bitwise() {
 }
 
 fn dp(rtol: f64, atol: f64) -> DiscretizationSettings {
-    DiscretizationSettings {
-        integrator: armature_scvx::Integrator::DormandPrince { rtol, atol },
-        ..Default::default()
+    {
+        let mut s = DiscretizationSettings::default();
+        s.integrator = armature_scvx::Integrator::DormandPrince { rtol, atol };
+        s
     }
 }
 
@@ -290,7 +299,14 @@ fn dormand_prince_agrees_with_fine_rk4_and_its_matrices_are_derivatives() {
         d.discretize(x, &u, &s, settings, &mut ws, &mut out).unwrap();
         out
     };
-    let fine = run(&DiscretizationSettings { substeps: 400, ..Default::default() }, &x);
+    let fine = run(
+        &{
+            let mut s = DiscretizationSettings::default();
+            s.substeps = 400;
+            s
+        },
+        &x,
+    );
     let adaptive = run(&dp(1e-11, 1e-13), &x);
     let close = |a: &[f64], b: &[f64], tol: f64| a.iter().zip(b).all(|(p, q)| (p - q).abs() < tol);
     assert!(close(&adaptive.x_prop, &fine.x_prop, 1e-9), "{:?} {:?}", adaptive.x_prop, fine.x_prop);
@@ -339,7 +355,11 @@ fn grid_records_the_trajectory_and_its_sensitivities_between_nodes() {
     let m = mu + 1;
     let nodes = 4;
     let substeps = 6;
-    let settings = DiscretizationSettings { substeps, ..Default::default() };
+    let settings = {
+        let mut s = DiscretizationSettings::default();
+        s.substeps = substeps;
+        s
+    };
     let stride = d.grid_stride();
     assert_eq!(stride, n + n * n + 2 * n * m);
     let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
@@ -437,8 +457,16 @@ fn grid_points_are_exact_on_the_double_integrator_with_both_integrators() {
     let nodes = 3;
     let substeps = 5;
     for settings in [
-        DiscretizationSettings { substeps, ..Default::default() },
-        DiscretizationSettings { substeps, ..dp(1e-12, 1e-14) },
+        {
+            let mut s = DiscretizationSettings::default();
+            s.substeps = substeps;
+            s
+        },
+        {
+            let mut s = dp(1e-12, 1e-14);
+            s.substeps = substeps;
+            s
+        },
     ] {
         let mut ws = d.workspace();
         let mut out = d.output_with_grid(nodes, substeps);
@@ -466,7 +494,11 @@ fn grid_for_other_substeps_is_an_error() {
     let s = vec![1.0; nodes];
     let mut ws = d.workspace();
     let mut out = d.output_with_grid(nodes, 4);
-    let settings = DiscretizationSettings { substeps: 5, ..Default::default() };
+    let settings = {
+        let mut s = DiscretizationSettings::default();
+        s.substeps = 5;
+        s
+    };
     let e = d.discretize(&x, &u, &s, &settings, &mut ws, &mut out).unwrap_err();
     assert!(
         e.to_string().contains("grid of substeps + 1 points (substeps 5, grid points 5)"),

@@ -162,7 +162,12 @@ fn certificate(pr: &Problem, ipm: &InteriorPoint) -> (f64, f64, f64, bool) {
 /// tolerances below 1e-8 want).
 /// The settings of these tests: a tolerance, two refinement steps.
 fn settings(tolerance: f64) -> IpmSettings {
-    IpmSettings { tolerance, refinement_steps: 2, ..IpmSettings::default() }
+    {
+        let mut s = IpmSettings::default();
+        s.tolerance = tolerance;
+        s.refinement_steps = 2;
+        s
+    }
 }
 
 fn solve_both(
@@ -432,7 +437,8 @@ fn warm_start_saves_iterations_and_reset_forgets_it() {
         let mut saved = 0;
         for _ in 0..20 {
             let pr = problem().new_tree(&mut runner).unwrap().current();
-            let set = IpmSettings { warm_start_centring: centring, ..settings(1e-8) };
+            let mut set = settings(1e-8);
+            set.warm_start_centring = centring;
             let (mut ipm, status, reference) = solve_both(&pr, set);
             assert_eq!(status, IpmStatus::Solved);
             let (x, _) = reference.expect("Clarabel solves these 20 problems");

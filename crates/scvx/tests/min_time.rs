@@ -21,12 +21,13 @@ fn minimum_time_double_integrator_is_bang_bang() {
     let nodes = 41;
     // The published PTR: constant trust region, heavy virtual-control price, no
     // quasi-Newton model.
-    let settings = PtrSettings {
-        trust_region: TrustRegionUpdate::Constant,
-        quasi_newton: false,
-        lam_vc: 1e2,
-        eps_tr: 1e-4,
-        ..PtrSettings::default()
+    let settings = {
+        let mut s = PtrSettings::default();
+        s.trust_region = TrustRegionUpdate::Constant;
+        s.quasi_newton = false;
+        s.lam_vc = 1e2;
+        s.eps_tr = 1e-4;
+        s
     };
     let r = solve_from_a_poor_guess(settings, "published PTR");
     for h in &r.history {
@@ -65,11 +66,12 @@ fn adaptive_trust_region_never_resolves_an_identical_subproblem() {
     // produce them moves with the subproblem solutions' last digits: a sweep).
     let mut rejections = 0;
     for lam_tr in [1e-3, 3e-3, 1e-2, 0.1] {
-        let settings = PtrSettings {
-            trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.7] },
-            max_iterations: 200,
-            lam_tr,
-            ..PtrSettings::default()
+        let settings = {
+            let mut s = PtrSettings::default();
+            s.trust_region = TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.7] };
+            s.max_iterations = 200;
+            s.lam_tr = lam_tr;
+            s
         };
         let r = solve_from_a_poor_guess(settings, &format!("adaptive, λ_tr = {lam_tr}"));
         rejections += r.history.iter().filter(|h| !h.accepted).count();
@@ -97,12 +99,13 @@ fn quasi_newton_reaches_the_minimum_time() {
     let mut close = 0;
     let sweep = [0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.5];
     for lam_tr in sweep {
-        let settings = PtrSettings {
-            quasi_newton: true,
-            merit: Merit::Lagrangian { sigma: 0.5 },
-            max_iterations: 200,
-            lam_tr,
-            ..PtrSettings::default()
+        let settings = {
+            let mut s = PtrSettings::default();
+            s.quasi_newton = true;
+            s.merit = Merit::Lagrangian { sigma: 0.5 };
+            s.max_iterations = 200;
+            s.lam_tr = lam_tr;
+            s
         };
         let r = solve_from_a_poor_guess(settings, &format!("quasi-Newton, λ_tr = {lam_tr}"));
         assert!(

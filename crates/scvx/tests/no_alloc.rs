@@ -11,9 +11,7 @@
 
 mod seed;
 
-use armature_scvx::{
-    DiscretizationSettings, Merit, Ptr, PtrSettings, SubproblemSettings, SubproblemSolver,
-};
+use armature_scvx::{Merit, Ptr, PtrSettings, SubproblemSolver};
 use armature_testing::{Counting, allocations_during};
 
 #[global_allocator]
@@ -37,16 +35,14 @@ fn ptr_steps_are_allocation_free() {
         (&interval, true, SubproblemSolver::InteriorPoint),
         (&collision, false, SubproblemSolver::InteriorPoint),
     ] {
-        let settings = PtrSettings {
-            subproblem: SubproblemSettings { solver, ..SubproblemSettings::default() },
-            quasi_newton,
-            merit: if quasi_newton {
-                Merit::Lagrangian { sigma: 0.5 }
-            } else {
-                Merit::ExactPenalty
-            },
-            discretization: DiscretizationSettings { parallel: false, ..Default::default() },
-            ..PtrSettings::default()
+        let settings = {
+            let mut s = PtrSettings::default();
+            s.subproblem.solver = solver;
+            s.quasi_newton = quasi_newton;
+            s.merit =
+                if quasi_newton { Merit::Lagrangian { sigma: 0.5 } } else { Merit::ExactPenalty };
+            s.discretization.parallel = false;
+            s
         };
         let mut ptr = Ptr::new(s.ocp.clone(), settings);
         ptr.solve(&s.x, &s.u, &s.s).unwrap();

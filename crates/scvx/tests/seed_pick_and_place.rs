@@ -5,9 +5,7 @@
 
 mod seed;
 
-use armature_scvx::{
-    Merit, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, SubproblemSettings, SubproblemSolver,
-};
+use armature_scvx::{Merit, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, SubproblemSolver};
 
 #[test]
 fn seed_pick_and_place_converges_and_meets_the_task() {
@@ -19,12 +17,10 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
 
 /// The defaults with Clarabel for every subproblem.
 fn only_clarabel() -> PtrSettings {
-    PtrSettings {
-        subproblem: SubproblemSettings {
-            solver: SubproblemSolver::Clarabel,
-            ..SubproblemSettings::default()
-        },
-        ..PtrSettings::default()
+    {
+        let mut s = PtrSettings::default();
+        s.subproblem.solver = SubproblemSolver::Clarabel;
+        s
     }
 }
 
@@ -56,12 +52,10 @@ fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
 #[test]
 fn clarabel_takes_over_when_the_native_solver_stops_short() {
     let s = seed::build();
-    let capped = PtrSettings {
-        subproblem: SubproblemSettings {
-            interior_point_max_iterations: 1,
-            ..SubproblemSettings::default()
-        },
-        ..PtrSettings::default()
+    let capped = {
+        let mut s = PtrSettings::default();
+        s.subproblem.interior_point.max_iterations = 1;
+        s
     };
     let r = Ptr::new(s.ocp.clone(), capped).solve(&s.x, &s.u, &s.s).unwrap();
     let c = Ptr::new(s.ocp.clone(), only_clarabel()).solve(&s.x, &s.u, &s.s).unwrap();
@@ -86,10 +80,11 @@ fn quasi_newton_reaches_a_lower_final_time() {
     // The quasi-Newton path takes more iterations than the first-order one, and how many
     // moves with the subproblem solutions' last digits (its BFGS pairs use the duals): it has
     // converged in 65 to 101 across solver revisions (the default cap is 200).
-    let settings = PtrSettings {
-        quasi_newton: true,
-        merit: Merit::Lagrangian { sigma: 0.5 },
-        ..PtrSettings::default()
+    let settings = {
+        let mut s = PtrSettings::default();
+        s.quasi_newton = true;
+        s.merit = Merit::Lagrangian { sigma: 0.5 };
+        s
     };
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
@@ -235,15 +230,13 @@ fn switching_far_peak_rows_off_keeps_the_collision_iterates() {
 #[test]
 fn no_collision_subproblem_runs_the_interior_point_to_its_cap() {
     let s = seed::build_collision();
-    let settings = PtrSettings {
-        lam_tr: 0.5,
-        discretization: armature_scvx::DiscretizationSettings {
-            substeps: 12,
-            ..Default::default()
-        },
-        ..PtrSettings::default()
+    let settings = {
+        let mut s = PtrSettings::default();
+        s.lam_tr = 0.5;
+        s.discretization.substeps = 12;
+        s
     };
-    let cap = settings.subproblem.interior_point_max_iterations;
+    let cap = settings.subproblem.interior_point.max_iterations;
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.status, PtrStatus::Converged);
     assert_eq!(seed::check(&s, &r).missed(true), None);
@@ -295,8 +288,12 @@ fn heavy_trust_region_subproblems_are_solved_natively() {
         interval_bounds: true,
         without_clearance_peaks: true,
     });
-    let settings = PtrSettings { lam_tr: 2.0, ..PtrSettings::default() };
-    let cap = settings.subproblem.interior_point_max_iterations;
+    let settings = {
+        let mut s = PtrSettings::default();
+        s.lam_tr = 2.0;
+        s
+    };
+    let cap = settings.subproblem.interior_point.max_iterations;
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
     let heavy: Vec<(usize, u32, f64)> = r
         .history
@@ -328,8 +325,11 @@ fn the_lagrangian_merit_does_not_reward_defects() {
         without_clearance_peaks: true,
         ..seed::Variant::default()
     });
-    let settings =
-        PtrSettings { merit: Merit::Lagrangian { sigma: 0.5 }, ..PtrSettings::default() };
+    let settings = {
+        let mut s = PtrSettings::default();
+        s.merit = Merit::Lagrangian { sigma: 0.5 };
+        s
+    };
     let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
     let c = seed::check(&s, &r);

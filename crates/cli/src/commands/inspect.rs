@@ -81,7 +81,7 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     );
     let _ = writeln!(s, "\ncontinuous-time constraints (CTCS integrals, nodal increments ≤ ε):");
     for (internal, what) in compiled.ctcs_groups() {
-        let _ = writeln!(s, "  {:<8} {what}", internal.trim_start_matches("dynamics of "));
+        let _ = writeln!(s, "  {:<8} {what}", internal);
     }
     let _ = writeln!(s, "nodal constraints:");
     for c in &ocp.nodal {

@@ -267,7 +267,7 @@ fn outcome(solution: &Solution) -> Result<(), CliError> {
     let message = match (&solution.status, &solution.max_violation) {
         (PtrStatus::ViolatedBetweenNodes, Some(v)) => format!(
             "converged at the nodes, but the dense trajectory violates {} by {:.3e}{} (more than dense_tolerance)",
-            v.constraint.trim_end_matches(" (dense)"),
+            v.constraint.name(),
             v.value,
             v.time.map_or(String::new(), |t| format!(" at t = {t:.3} s"))
         ),

@@ -33,7 +33,9 @@ use integrators::*;
 use lanes::*;
 
 /// Integrator settings.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
 pub struct DiscretizationSettings {
     /// RK4 steps per segment; for Dormand–Prince, the first trial step is `Δτ / substeps`.
     /// Default 10.
@@ -51,8 +53,12 @@ impl Default for DiscretizationSettings {
     }
 }
 
-/// How each segment is integrated (the state and its variational equations together).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+/// How each segment is integrated (the state and its variational equations together). As
+/// data: `"rk4"` or `{ dormand_prince = { rtol = 1e-8, atol = 1e-10 } }`.
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Integrator {
     /// Classical RK4 with `substeps` equal steps: `A`, `B±` are the exact derivatives of the
     /// numerical propagation map.
@@ -65,11 +71,21 @@ pub enum Integrator {
     /// seed arm PTR stalls with it. Use it to check a trajectory's accuracy, or with SCvx on
     /// smooth problems.
     DormandPrince {
-        /// Relative tolerance (> 0).
+        /// Relative tolerance (> 0). Default 1e-8.
+        #[serde(default = "default_rtol")]
         rtol: f64,
-        /// Absolute tolerance (> 0).
+        /// Absolute tolerance (> 0). Default 1e-10.
+        #[serde(default = "default_atol")]
         atol: f64,
     },
+}
+
+fn default_rtol() -> f64 {
+    1e-8
+}
+
+fn default_atol() -> f64 {
+    1e-10
 }
 
 /// Steps one Dormand–Prince segment may take before the discretization gives up.

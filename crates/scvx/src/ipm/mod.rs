@@ -75,8 +75,10 @@ pub const MAX_SOC: usize = 8;
 /// Analyses kept for other sets of switched-off rows (see `InteriorPoint::select_kkt`).
 const KKT_CACHE: usize = 4;
 
-/// Settings of [`InteriorPoint`].
-#[derive(Debug, Clone, PartialEq)]
+/// Settings of [`InteriorPoint`], deserializable from data (every field optional).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
 pub struct IpmSettings {
     /// Feasibility (relative) and complementarity-gap `sᵀz` (absolute, or relative to the
     /// objectives) tolerance. Default 1e-8.

@@ -74,7 +74,7 @@ impl Problem {
             .map(|(i, names)| {
                 let (g, o) = &groups[i];
                 (
-                    format!("dynamics of _ctcs_{i}"),
+                    format!("_ctcs_{i}"),
                     format!(
                         "continuous-time {} (nodes {}..={}, ε = {:e})",
                         names.join(", "),
@@ -87,6 +87,7 @@ impl Problem {
             .collect();
         Ok(CompiledProblem {
             ctcs_names,
+            ctcs_row0: n_named,
             dense_checks,
             layout: SolutionLayout {
                 states: blocks(self.states.iter().map(|s| (s.name.clone(), s.size())).collect()),

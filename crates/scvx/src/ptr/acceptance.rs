@@ -84,8 +84,8 @@ impl Ptr {
             // conditioned BFGS block): forget them and solve this iteration first-order.
             st.hess_ready.fill(false);
             self.fill_p(st, false);
-            if let Some(ipm) = st.ipm.as_mut() {
-                ipm.reset();
+            if let Some(native) = st.native.as_mut() {
+                native.reset();
             }
             outcome = self.solve_subproblem(st, &set.subproblem, record);
         }

@@ -45,22 +45,31 @@ impl Ptr {
                 gj += c.function.jacobian_pattern().nnz();
             }
         }
-        // The rows, cone by cone: zero (dynamics, boundary), nonnegative (bounds, nodal
-        // inequalities, peaks, nonnegativity), second-order (balls).
+        // The rows, family by family, cone by cone (see `rows`).
         let tp = ocp.dynamics.transition_pattern();
-        let mut rb = RowBuilder::default();
-        rows::dynamics::push(&v, tp, &mut rb);
-        rows::boundary::push(&v, &ocp, &mut rb);
-        let n_zero = rb.row;
-        rows::bounds::push(&v, &ocp, &mut rb);
-        let mut nodal = rows::nodal::push_inequalities(&v, &ocp, &g_offsets, &mut rb);
-        let mut peaks =
-            rows::peaks::push_state_peaks(&v, &ocp, tp, &interval_rows, v.vb0 + n_buffers, &mut rb);
-        let pts = settings.discretization.substeps + 1;
-        rows::peaks::push_function_peaks(&v, &ocp, tp, pts, &mut peaks, &mut rb);
-        rows::bounds::push_nonnegative(&v, n_vars, &mut rb);
-        let n_nonneg = rb.row - n_zero;
-        let socs = rows::nodal::push_balls(&v, &ocp, &g_offsets, &mut nodal, &mut rb);
+        let mut cx = Placement {
+            v: &v,
+            ocp: &ocp,
+            tp,
+            pts: settings.discretization.substeps + 1,
+            g_offsets: &g_offsets,
+            interval_rows: &interval_rows,
+            n_vars,
+            rb: RowBuilder::default(),
+            nodal: Default::default(),
+            peaks: rows::peaks::PeakPlacement { buffer: v.vb0 + n_buffers, ..Default::default() },
+            socs: Vec::new(),
+        };
+        let mut cone_rows = [0; 3];
+        for cone in [Cone::Zero, Cone::Nonnegative, Cone::SecondOrder] {
+            let first = cx.rb.row;
+            for f in Family::ALL.iter().filter(|f| f.cone() == cone) {
+                f.push(&mut cx);
+            }
+            cone_rows[cone as usize] = cx.rb.row - first;
+        }
+        let [n_zero, n_nonneg, _] = cone_rows;
+        let Placement { rb, nodal, peaks, socs, .. } = cx;
         let RowBuilder { trip, b, row } = rb;
         let (vp0, vb0) = (v.vp0, v.vb0);
         let nodal_rows = nodal.rows;

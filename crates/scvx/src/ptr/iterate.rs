@@ -39,16 +39,11 @@ pub(super) struct Iterate {
     pub(super) inv_s2: Vec<f64>,
     pub(super) nz: Vec<f64>,
     pub(super) b: Vec<f64>,
-    pub(super) cones: Vec<SupportedConeT<f64>>,
-    pub(super) solver: Option<DefaultSolver<f64>>,
-    pub(super) ipm: Option<InteriorPoint>,
+    /// The subproblem's backends, built at their first solve.
+    pub(super) native: Option<NativeBackend>,
     /// The native solver could not take this pattern (Clarabel is used throughout).
-    pub(super) ipm_unusable: bool,
-    /// The objective divided by λ_tr for the native solver, once a solve needed it
-    /// (`scale_objective`).
-    pub(super) p_scaled: Vec<f64>,
-    pub(super) q_scaled: Vec<f64>,
-    pub(super) scale_objective: bool,
+    pub(super) native_unusable: bool,
+    pub(super) clarabel: Option<ClarabelBackend>,
 
     pub(super) sol_x: Vec<f64>,
     pub(super) sol_z: Vec<f64>,
@@ -96,9 +91,6 @@ impl Ptr {
             })
             .collect();
         let dmax = self.elements.iter().map(|e| e.cols.len()).max().unwrap_or(0);
-        let mut cones: Vec<SupportedConeT<f64>> =
-            vec![ZeroConeT(self.n_zero), NonnegativeConeT(self.n_nonneg)];
-        cones.extend(self.socs.iter().map(|&d| SecondOrderConeT(d)));
         Iterate {
             xb: vec![0.0; nn * n],
             ub: vec![0.0; nn * m],
@@ -162,15 +154,11 @@ impl Ptr {
             inv_s2,
             nz: vec![0.0; self.a_rowval.len()],
             b: self.b.clone(),
-            cones,
-            solver: None,
-            ipm: None,
-            ipm_unusable: false,
+            native: None,
+            native_unusable: false,
+            clarabel: None,
             sol_x: vec![0.0; self.n_vars],
             sol_z: vec![0.0; self.b.len()],
-            p_scaled: vec![0.0; self.p_rowval.len()],
-            q_scaled: vec![0.0; self.n_vars],
-            scale_objective: false,
             linearized: false,
         }
     }

@@ -155,7 +155,7 @@ impl Ptr {
     /// one is analysed for them.
     pub fn dimensions(&self) -> SubproblemDimensions {
         let running =
-            self.state.as_ref().and_then(|st| st.ipm.as_ref()).map(|ipm| ipm.kkt_nonzeros());
+            self.state.as_ref().and_then(|st| st.native.as_ref()).map(|n| n.ipm.kkt_nonzeros());
         SubproblemDimensions {
             variables: self.n_vars,
             equality_rows: self.n_zero,
@@ -211,6 +211,7 @@ impl Ptr {
 }
 
 mod acceptance;
+mod backend;
 mod build;
 mod evaluate;
 mod iterate;
@@ -227,6 +228,7 @@ mod tests;
 mod violations;
 
 pub use crate::ocp::*;
+use backend::*;
 use evaluate::*;
 use iterate::*;
 use merit::*;

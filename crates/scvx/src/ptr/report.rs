@@ -273,8 +273,9 @@ pub enum PtrError {
 /// The largest violation of one constraint at a trajectory.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Violation {
-    /// The constraint's name (`dynamics of angle[2]`, a nodal constraint's name).
-    pub constraint: String,
+    /// The constraint it belongs to (serialized as its [`Display`](std::fmt::Display) text,
+    /// `dynamics of angle[2]`, a nodal constraint's name, `table (dense)`).
+    pub constraint: ConstraintRef,
     /// Its largest violation (≥ 0; a dynamics defect in the state's units).
     pub value: f64,
     /// The node (for dynamics and the dense trajectory: the segment's first node) where it
@@ -283,6 +284,117 @@ pub struct Violation {
     /// For a check on the dense trajectory: the instant where it is largest (s).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time: Option<f64>,
+}
+
+/// Which constraint a [`Violation`] belongs to. `Display` gives the words of the reports and
+/// the JSON (`dynamics of angle[2]`, `waypoint 5`, `bounds of v between nodes`, `table
+/// (dense)`).
+///
+/// # Example
+/// ```
+/// use armature_scvx::ConstraintRef;
+///
+/// let c = ConstraintRef::Dense { name: "table".into() };
+/// assert_eq!(c.to_string(), "table (dense)");
+/// assert_eq!(c.name(), "table");
+/// assert_eq!(serde_json::to_string(&c).unwrap(), "\"table (dense)\"");
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum ConstraintRef {
+    /// The dynamics defect of state row `state` (named `name`) at the nodes.
+    Dynamics {
+        /// The state row.
+        state: usize,
+        /// Its name (`angle[2]`).
+        name: String,
+    },
+    /// A nodal constraint (or the entries of one that share `name`) at its nodes.
+    Nodal {
+        /// Index into [`Ocp::nodal`](crate::Ocp::nodal).
+        constraint: usize,
+        /// Its (entry's) name.
+        name: String,
+    },
+    /// The bounds of state row `state` at its peaks between the nodes
+    /// ([`Ocp::interval_bounds`](crate::Ocp::interval_bounds)).
+    StateBoundsBetweenNodes {
+        /// The state row.
+        state: usize,
+        /// Its name.
+        name: String,
+    },
+    /// An interval constraint at its peaks between the nodes
+    /// ([`Ocp::interval_constraints`](crate::Ocp::interval_constraints)).
+    BetweenNodes {
+        /// Index into [`Ocp::interval_constraints`](crate::Ocp::interval_constraints).
+        constraint: usize,
+        /// Its name.
+        name: String,
+    },
+    /// A continuous-time (CTCS) integral of the named layer: its defect at the nodes, which
+    /// is the integrated violation of the constraints it carries.
+    Continuous {
+        /// The CTCS group (its integral is state row `n_named + group`).
+        group: usize,
+        /// What it carries (`continuous-time table (nodes 0..=10, ε = 1e-4)`).
+        description: String,
+    },
+    /// A continuous-time constraint (or a state's bounds, `bounds of NAME`) evaluated on the
+    /// dense trajectory after the solve.
+    Dense {
+        /// The constraint's name.
+        name: String,
+    },
+}
+
+impl ConstraintRef {
+    /// The constraint's own name (the state's, for dynamics and bounds; the description,
+    /// for a CTCS integral).
+    pub fn name(&self) -> &str {
+        match self {
+            ConstraintRef::Dynamics { name, .. }
+            | ConstraintRef::Nodal { name, .. }
+            | ConstraintRef::StateBoundsBetweenNodes { name, .. }
+            | ConstraintRef::BetweenNodes { name, .. }
+            | ConstraintRef::Dense { name } => name,
+            ConstraintRef::Continuous { description, .. } => description,
+        }
+    }
+}
+
+impl std::fmt::Display for ConstraintRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ConstraintRef::Dynamics { name, .. } => write!(f, "dynamics of {name}"),
+            ConstraintRef::Nodal { name, .. } => f.write_str(name),
+            ConstraintRef::StateBoundsBetweenNodes { name, .. } => {
+                write!(f, "bounds of {name} between nodes")
+            }
+            ConstraintRef::BetweenNodes { name, .. } => write!(f, "{name} between nodes"),
+            ConstraintRef::Continuous { description, .. } => f.write_str(description),
+            ConstraintRef::Dense { name } => write!(f, "{name} (dense)"),
+        }
+    }
+}
+
+impl Serialize for ConstraintRef {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl PartialEq<str> for ConstraintRef {
+    /// Whether its report text is `other`.
+    fn eq(&self, other: &str) -> bool {
+        self.to_string() == other
+    }
+}
+
+impl PartialEq<&str> for ConstraintRef {
+    fn eq(&self, other: &&str) -> bool {
+        self.to_string() == *other
+    }
 }
 
 /// Wall-clock totals of a solve (ms).

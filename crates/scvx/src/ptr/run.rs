@@ -112,11 +112,10 @@ impl Ptr {
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
         // A new solve does not warm-start from the last one's subproblem.
-        if let Some(ipm) = st.ipm.as_mut() {
-            ipm.reset();
+        if let Some(native) = st.native.as_mut() {
+            native.restart();
         }
         st.hess_ready.fill(false);
-        st.scale_objective = false;
         st.linearized = false;
         st.history.clear();
         // Room for a typical solve; a huge cap must not reserve its whole history up front.

@@ -1,9 +1,30 @@
 //! Settings of the PTR loop and of its convex subproblems, with their validation.
 
+use schemars::JsonSchema;
+use serde::Deserialize;
+
 use super::*;
 
-/// PTR settings with documented defaults.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// PTR settings with documented defaults, deserializable from data (every field optional,
+/// unknown keys refused).
+///
+/// # Example
+/// ```
+/// use armature_scvx::{Merit, PtrSettings};
+///
+/// let mut settings = PtrSettings::default();
+/// settings.quasi_newton = true;
+/// settings.merit = Merit::Lagrangian { sigma: 0.5 };
+/// assert!(settings.validate().is_ok());
+///
+/// // The same settings as data (any serde format; TOML in the CLI's `[settings]`).
+/// let json = r#"{ "quasi_newton": true, "merit": { "lagrangian": { "sigma": 0.5 } } }"#;
+/// let parsed: PtrSettings = serde_json::from_str(json).unwrap();
+/// assert_eq!(parsed, settings);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PtrSettings {
     /// Initial trust-region weight λ_tr. Default 1.
     pub lam_tr: f64,
@@ -40,7 +61,7 @@ pub struct PtrSettings {
     pub max_iterations: usize,
     /// Integrator settings.
     pub discretization: DiscretizationSettings,
-    /// Settings of the convex subproblem solver (Clarabel).
+    /// Settings of the convex subproblems' solvers.
     pub subproblem: SubproblemSettings,
     /// Time step of the dense propagation in post-processing (s). Default 0.01.
     pub dense_dt: f64,
@@ -66,8 +87,10 @@ pub struct PtrSettings {
     pub merit: Merit,
 }
 
-/// Merit function of the step acceptance (with [`TrustRegionUpdate::Adaptive`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// Merit function of the step acceptance (with [`TrustRegionUpdate::Adaptive`]). As data:
+/// `"exact_penalty"` or `{ lagrangian = { sigma = 0.5 } }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Merit {
     /// `J = cost + Σ λ_vc,i·|defect_i| + Σ λ_vb·max(0, violation)`: the ℓ1 exact penalty.
     /// Second-order defects of a good step count at full price (the Maratos effect), which
@@ -79,13 +102,14 @@ pub enum Merit {
     /// fraction). The clip keeps each defect's price nonnegative, so the merit is bounded
     /// below (with the raw duals a row whose dual exceeds σλ_vc rewards a growing defect).
     Lagrangian {
-        /// Fraction σ ∈ [0, 1] of the ℓ1 price kept.
+        /// Fraction σ ∈ [0, 1] of the ℓ1 price kept. Default 0.5.
+        #[serde(default = "half")]
         sigma: f64,
     },
 }
 
 /// Which interior-point solver solves the convex subproblems.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum SubproblemSolver {
     /// [`crate::ipm::InteriorPoint`], warm-started from the previous subproblem. A solve
@@ -96,68 +120,74 @@ pub enum SubproblemSolver {
     /// subproblem. (The retry is a safeguard: the one seed case that needed it failed on the
     /// interior point's former objective-gap test, and since the complementarity-gap test
     /// no first-order run of the seed's neighbourhood grids reaches the cap.)
+    #[default]
     InteriorPoint,
     /// Clarabel for every subproblem (cold starts: Clarabel has no warm start).
     Clarabel,
 }
 
-/// Settings of the interior-point solver of each convex subproblem. Clarabel's other
-/// settings keep its defaults, except presolve, which is off so that data can be updated in
-/// place between iterations.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// Settings of the convex subproblems: which solver, and each solver's own settings.
+///
+/// # Example
+/// ```
+/// use armature_scvx::{PtrSettings, SubproblemSolver};
+///
+/// let mut settings = PtrSettings::default();
+/// settings.subproblem.solver = SubproblemSolver::Clarabel;
+/// settings.subproblem.clarabel.max_iterations = 100;
+/// settings.subproblem.interior_point.max_iterations = 80;
+/// assert!(settings.validate().is_ok());
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
 pub struct SubproblemSettings {
     /// The solver. Default [`SubproblemSolver::InteriorPoint`]: on the seed problem it
-    /// solves the first-order subproblems in less than half of Clarabel's time (warm starts:
-    /// 10–11 interior-point iterations per subproblem against 17–19) and allocates nothing.
-    /// Primal solutions agree with Clarabel's within the tolerance; duals agree where they
-    /// are unique. Where they are not (a CTCS integral pinned at 0 by both its initial
-    /// condition and its lower bound leaves its row's multiplier free along a ray), the
-    /// quasi-Newton model and the Lagrangian merit, which use the duals, can take a
-    /// different path than with Clarabel; first-order PTR with the exact-penalty merit
+    /// solves the first-order subproblems in less than half of Clarabel's time (warm starts)
+    /// and allocates nothing. Primal solutions agree with Clarabel's within the tolerance;
+    /// duals agree where they are unique. Where they are not (a CTCS integral pinned at 0 by
+    /// both its initial condition and its lower bound leaves its row's multiplier free along
+    /// a ray), the quasi-Newton model and the Lagrangian merit, which use the duals, can take
+    /// a different path than with Clarabel; first-order PTR with the exact-penalty merit
     /// takes the same one.
     pub solver: SubproblemSolver,
+    /// The native interior point's settings (also used when it is only the first try).
+    pub interior_point: IpmSettings,
+    /// Clarabel's settings (the fallback, or the solver).
+    pub clarabel: ClarabelSettings,
+}
+
+/// The settings of Clarabel that armature exposes; the rest keep Clarabel's defaults, except
+/// presolve, which is off so that data can be updated in place between iterations.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
+pub struct ClarabelSettings {
     /// Absolute and relative duality-gap and feasibility tolerance. Default 1e-8 (Clarabel's).
-    /// The native interior point measures the gap as the complementarity `sᵀz` (see
-    /// [`crate::ipm::IpmSettings::tolerance`]).
     pub tolerance: f64,
-    /// Tolerance (absolute and relative) of Clarabel's iterative refinement of each KKT
-    /// solve. Default 1e-9: Clarabel's own 1e-13 spends ~20 % of the seed solve refining directions
-    /// far below what the tolerance above can use, for the same iterates.
+    /// Tolerance (absolute and relative) of the iterative refinement of each KKT solve.
+    /// Default 1e-9 (Clarabel's own 1e-13 refines directions far below what the tolerance
+    /// above can use; see the crate's BENCHMARKS.md).
     pub refinement_tolerance: f64,
-    /// Clarabel's iteration cap. Default 200.
+    /// Iteration cap. Default 200.
     pub max_iterations: u32,
-    /// The native interior point's iteration cap; when it is reached, the native solver
-    /// retries with the objective scaled, then Clarabel solves the subproblem instead.
-    /// Default 50 (the seed problem's subproblems take 6–21).
-    pub interior_point_max_iterations: u32,
-    /// Clarabel's Ruiz equilibration. Default on. (The native solver works on the scaled
-    /// data as given.)
+    /// Ruiz equilibration. Default on.
     pub equilibrate: bool,
 }
 
-impl Default for SubproblemSettings {
+impl Default for ClarabelSettings {
     fn default() -> Self {
-        SubproblemSettings {
-            solver: SubproblemSolver::InteriorPoint,
+        ClarabelSettings {
             tolerance: 1e-8,
             refinement_tolerance: 1e-9,
             max_iterations: 200,
-            interior_point_max_iterations: 50,
             equilibrate: true,
         }
     }
 }
 
-impl SubproblemSettings {
-    pub(super) fn interior_point(&self) -> IpmSettings {
-        IpmSettings {
-            tolerance: self.tolerance,
-            max_iterations: self.interior_point_max_iterations,
-            ..IpmSettings::default()
-        }
-    }
-
-    pub(super) fn clarabel(&self) -> DefaultSettings<f64> {
+impl ClarabelSettings {
+    pub(super) fn to_clarabel(&self) -> DefaultSettings<f64> {
         DefaultSettings {
             verbose: false,
             presolve_enable: false,
@@ -189,6 +219,37 @@ impl PtrSettings {
     /// # Errors
     /// [`SettingsError`] naming the first unusable field.
     pub fn validate(&self) -> Result<(), SettingsError> {
+        self.validate_weights()?;
+        let bad = |field, reason| Err(SettingsError { field, reason });
+        if self.max_iterations == 0 {
+            return bad("max_iterations", "must be at least 1");
+        }
+        if self.discretization.substeps == 0 {
+            return bad("discretization.substeps", "must be at least 1");
+        }
+        if let crate::Integrator::DormandPrince { rtol, atol } = self.discretization.integrator
+            && !(rtol.is_finite() && rtol > 0.0 && atol.is_finite() && atol > 0.0)
+        {
+            return bad(
+                "discretization.integrator.dormand_prince",
+                "tolerances rtol and atol must be positive",
+            );
+        }
+        if let TrustRegionUpdate::Adaptive { eta } = self.trust_region
+            && !(eta.iter().all(|e| e.is_finite()) && eta[0] <= eta[1] && eta[1] <= eta[2])
+        {
+            return bad("trust_region.adaptive.eta", "must be finite and non-decreasing");
+        }
+        if let Merit::Lagrangian { sigma } = self.merit
+            && !(0.0..=1.0).contains(&sigma)
+        {
+            return bad("merit.lagrangian.sigma", "must lie in [0, 1]");
+        }
+        self.validate_subproblem()
+    }
+
+    /// The weights, tolerances and steps that must be positive, and their orders.
+    fn validate_weights(&self) -> Result<(), SettingsError> {
         let positive = [
             ("lam_tr", self.lam_tr),
             ("lam_tr_min", self.lam_tr_min),
@@ -199,8 +260,6 @@ impl PtrSettings {
             ("eps_vb", self.eps_vb),
             ("eps_tr", self.eps_tr),
             ("eps_defect", self.eps_defect),
-            ("subproblem.tolerance", self.subproblem.tolerance),
-            ("subproblem.refinement_tolerance", self.subproblem.refinement_tolerance),
             ("dense_dt", self.dense_dt),
             ("dense_tolerance", self.dense_tolerance),
         ];
@@ -216,32 +275,40 @@ impl PtrSettings {
         if self.lam_vc > self.lam_vc_max || self.lam_vb > self.lam_vc_max {
             return bad("lam_vc_max", "must be at least lam_vc and lam_vb");
         }
-        if self.max_iterations == 0 {
-            return bad("max_iterations", "must be at least 1");
+        Ok(())
+    }
+
+    /// The subproblem solvers' settings.
+    fn validate_subproblem(&self) -> Result<(), SettingsError> {
+        let (ip, cl) = (&self.subproblem.interior_point, &self.subproblem.clarabel);
+        let positive = [
+            ("subproblem.interior_point.tolerance", ip.tolerance),
+            ("subproblem.clarabel.tolerance", cl.tolerance),
+            ("subproblem.clarabel.refinement_tolerance", cl.refinement_tolerance),
+        ];
+        for (field, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SettingsError { field, reason: "must be a positive finite number" });
+            }
         }
-        if self.subproblem.max_iterations == 0 {
-            return bad("subproblem.max_iterations", "must be at least 1");
+        let nonnegative = [
+            ("subproblem.interior_point.regularization", ip.regularization),
+            ("subproblem.interior_point.warm_start_margin", ip.warm_start_margin),
+        ];
+        for (field, v) in nonnegative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SettingsError { field, reason: "must be a finite number ≥ 0" });
+            }
         }
-        if self.subproblem.interior_point_max_iterations == 0 {
-            return bad("subproblem.interior_point_max_iterations", "must be at least 1");
+        let bad = |field, reason| Err(SettingsError { field, reason });
+        if !ip.warm_start_centring.is_finite() {
+            return bad("subproblem.interior_point.warm_start_centring", "must be finite");
         }
-        if self.discretization.substeps == 0 {
-            return bad("discretization.substeps", "must be at least 1");
+        if ip.max_iterations == 0 {
+            return bad("subproblem.interior_point.max_iterations", "must be at least 1");
         }
-        if let crate::Integrator::DormandPrince { rtol, atol } = self.discretization.integrator
-            && !(rtol.is_finite() && rtol > 0.0 && atol.is_finite() && atol > 0.0)
-        {
-            return bad("discretization.integrator", "Dormand–Prince tolerances must be positive");
-        }
-        if let TrustRegionUpdate::Adaptive { eta } = self.trust_region
-            && !(eta.iter().all(|e| e.is_finite()) && eta[0] <= eta[1] && eta[1] <= eta[2])
-        {
-            return bad("trust_region.eta", "must be finite and non-decreasing");
-        }
-        if let Merit::Lagrangian { sigma } = self.merit
-            && !(0.0..=1.0).contains(&sigma)
-        {
-            return bad("merit.sigma", "must lie in [0, 1]");
+        if cl.max_iterations == 0 {
+            return bad("subproblem.clarabel.max_iterations", "must be at least 1");
         }
         Ok(())
     }
@@ -259,7 +326,7 @@ impl Default for PtrSettings {
             eps_vb: 1e-6,
             eps_tr: 1e-5,
             eps_defect: 1e-6,
-            trust_region: TrustRegionUpdate::Adaptive { eta: [0.0, 0.1, 0.5] },
+            trust_region: TrustRegionUpdate::Adaptive { eta: default_eta() },
             max_iterations: 200,
             discretization: DiscretizationSettings::default(),
             subproblem: SubproblemSettings::default(),
@@ -272,8 +339,9 @@ impl Default for PtrSettings {
     }
 }
 
-/// Trust-region policy.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// Trust-region policy. As data: `"constant"` or `{ adaptive = { eta = [0, 0.1, 0.5] } }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum TrustRegionUpdate {
     /// Penalized trust region as published (Reynolds, Szmuk et al.; OpenSCvx's
     /// `ConstantProximalWeight`): every step is accepted and λ_tr stays fixed; the
@@ -284,7 +352,16 @@ pub enum TrustRegionUpdate {
     /// halve it above η₂. Slower than `Constant` on the reference problems so far: second-
     /// order defects weighted by λ_vc keep ρ low, so λ_tr stays high.
     Adaptive {
-        /// The thresholds.
+        /// The thresholds. Default [0, 0.1, 0.5].
+        #[serde(default = "default_eta")]
         eta: [f64; 3],
     },
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+fn default_eta() -> [f64; 3] {
+    [0.0, 0.1, 0.5]
 }

@@ -12,11 +12,9 @@ impl Ptr {
             let (k, d) = (0..nn - 1)
                 .map(|k| (k, st.dbar.defect[k * n + r].abs()))
                 .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            let name = self.ocp.dynamics.state_name(r).unwrap_or("state").to_string();
             out.push(Violation {
-                constraint: format!(
-                    "dynamics of {}",
-                    self.ocp.dynamics.state_name(r).unwrap_or("state")
-                ),
+                constraint: ConstraintRef::Dynamics { state: r, name },
                 value: d,
                 node: Some(k),
                 time: None,
@@ -25,7 +23,7 @@ impl Ptr {
         let zeros = vec![0.0; st.lam_vb.len()];
         self.eval_nodal(&st.xb, &st.ub, &mut st.ev, &zeros, false);
         let mut i = 0;
-        for c in &self.ocp.nodal {
+        for (ci, c) in self.ocp.nodal.iter().enumerate() {
             let per_node = match c.kind {
                 NodalKind::Inequality => c.function.n_outputs(),
                 NodalKind::Ball { .. } => 1,
@@ -36,12 +34,12 @@ impl Ptr {
             let mut slot = Vec::with_capacity(per_node);
             for o in 0..per_node {
                 let name = c.output_names.get(o).unwrap_or(&c.name);
-                match out[first..].iter().position(|v| v.constraint == *name) {
+                match out[first..].iter().position(|v| v.constraint.name() == name) {
                     Some(i) => slot.push(first + i),
                     None => {
                         slot.push(out.len());
                         out.push(Violation {
-                            constraint: name.clone(),
+                            constraint: ConstraintRef::Nodal { constraint: ci, name: name.clone() },
                             value: 0.0,
                             node: None,
                             time: None,
@@ -51,7 +49,7 @@ impl Ptr {
             }
             if slot.is_empty() {
                 out.push(Violation {
-                    constraint: c.name.clone(),
+                    constraint: ConstraintRef::Nodal { constraint: ci, name: c.name.clone() },
                     value: 0.0,
                     node: None,
                     time: None,
@@ -83,11 +81,14 @@ impl Ptr {
         keys.dedup();
         for k in keys {
             let constraint = match k {
-                (0, r) => format!(
-                    "bounds of {} between nodes",
-                    self.ocp.dynamics.state_name(r).unwrap_or("state")
-                ),
-                (_, c) => format!("{} between nodes", self.ocp.interval_constraints[c].name),
+                (0, state) => ConstraintRef::StateBoundsBetweenNodes {
+                    state,
+                    name: self.ocp.dynamics.state_name(state).unwrap_or("state").to_string(),
+                },
+                (_, c) => ConstraintRef::BetweenNodes {
+                    constraint: c,
+                    name: self.ocp.interval_constraints[c].name.clone(),
+                },
             };
             let mut worst = Violation { constraint, value: 0.0, node: None, time: None };
             for (i, p) in self.peaks.iter().enumerate().filter(|(_, p)| key(p.of) == k) {

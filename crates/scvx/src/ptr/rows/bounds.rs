@@ -3,7 +3,7 @@
 //! `t_min ≤ Δτ·Σ s_k ≤ t_max`, the CTCS increments `y_{k+1} − y_k ≤ ε`, and the
 //! nonnegativity of the virtual controls and buffers.
 
-use super::{RowBuilder, Source, VarLayout};
+use super::{Cone, Placement, RowBuilder, RowFamily, Source, VarLayout};
 use crate::Ocp;
 
 /// Appends the box bounds, the final time's bounds and the increments.
@@ -42,5 +42,28 @@ pub(in crate::ptr) fn push(v: &VarLayout, ocp: &Ocp, rb: &mut RowBuilder) {
 pub(in crate::ptr) fn push_nonnegative(v: &VarLayout, n_vars: usize, rb: &mut RowBuilder) {
     for c in v.vp0..n_vars {
         rb.bound(c, -1.0, 0.0);
+    }
+}
+
+/// The box bounds, final-time bounds and CTCS increments as a [`RowFamily`].
+pub(in crate::ptr) struct Bounds;
+
+impl RowFamily for Bounds {
+    const CONE: Cone = Cone::Nonnegative;
+
+    fn push(cx: &mut Placement<'_>) {
+        push(cx.v, cx.ocp, &mut cx.rb);
+    }
+}
+
+/// The nonnegativity of the virtual controls and buffers as a [`RowFamily`] (placed last
+/// among the nonnegative rows, once every buffer column exists).
+pub(in crate::ptr) struct Nonnegativity;
+
+impl RowFamily for Nonnegativity {
+    const CONE: Cone = Cone::Nonnegative;
+
+    fn push(cx: &mut Placement<'_>) {
+        push_nonnegative(cx.v, cx.n_vars, &mut cx.rb);
     }
 }

@@ -5,7 +5,7 @@
 
 use armature_symbolic::SparsityPattern;
 
-use super::{RowBuilder, Source, VarLayout};
+use super::{Cone, Placement, RowBuilder, RowFamily, Source, VarLayout};
 
 /// Appends the dynamics rows.
 pub(in crate::ptr) fn push(v: &VarLayout, tp: &SparsityPattern, rb: &mut RowBuilder) {
@@ -25,5 +25,16 @@ pub(in crate::ptr) fn push(v: &VarLayout, tp: &SparsityPattern, rb: &mut RowBuil
             rb.entry(v.vm0 + k * n + r, Source::Const(-1.0));
             rb.end_row(0.0);
         }
+    }
+}
+
+/// The dynamics rows as a [`RowFamily`].
+pub(in crate::ptr) struct Dynamics;
+
+impl RowFamily for Dynamics {
+    const CONE: Cone = Cone::Zero;
+
+    fn push(cx: &mut Placement<'_>) {
+        push(cx.v, cx.tp, &mut cx.rb);
     }
 }

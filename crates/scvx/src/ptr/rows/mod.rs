@@ -1,12 +1,110 @@
-//! The subproblem's row bookkeeping built once by `Ptr::new`: where each nonzero's value comes
-//! from, the interval (peak) rows, the quasi-Newton elements and the nodal rows; and one file
-//! per row family, each appending its rows to the pattern in cone order (see `Ptr::new`).
+//! The subproblem's rows, one file per [`RowFamily`], and the bookkeeping `Ptr::new` builds
+//! once: where each nonzero's value comes from, the interval (peak) rows, the quasi-Newton
+//! elements and the nodal rows.
+//!
+//! # Adding a family
+//! A family is a type implementing [`RowFamily`] in its own file: its cone and a `push` that
+//! appends its rows (entries with their value [`Source`]s, right-hand sides) through the
+//! [`Placement`]. Register it with one line in [`row_families!`] below; `Ptr::new` places
+//! every family cone by cone (zero, nonnegative, second-order), in the order listed. A
+//! family with constant coefficients needs nothing else (the subproblem enforces its rows
+//! exactly); one whose coefficients vary adds a [`Source`] variant, refilled each iteration.
+//! `control_rate.rs` (a test) is such a family: a rate limit on the controls.
 
 pub(super) mod boundary;
 pub(super) mod bounds;
+#[cfg(test)]
+mod control_rate;
 pub(super) mod dynamics;
 pub(super) mod nodal;
 pub(super) mod peaks;
+
+use armature_symbolic::SparsityPattern;
+
+use crate::Ocp;
+
+/// The cone of a family's rows; the subproblem's rows are ordered by cone in this order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) enum Cone {
+    /// Equalities `Az = b`.
+    Zero,
+    /// Inequalities `Az ≤ b`.
+    Nonnegative,
+    /// Second-order cones `b − Az ∈ SOC`.
+    SecondOrder,
+}
+
+/// What a row family reads while `Ptr::new` places it, and where it records its rows.
+pub(super) struct Placement<'a> {
+    pub(super) v: &'a VarLayout,
+    pub(super) ocp: &'a Ocp,
+    /// The dynamics' transition pattern (which `A`, `B±` entries are structurally nonzero).
+    pub(super) tp: &'a SparsityPattern,
+    /// Integration grid points per segment.
+    pub(super) pts: usize,
+    /// Per (nodal constraint, node) evaluation block: its value and Jacobian offsets.
+    pub(super) g_offsets: &'a [(usize, usize)],
+    /// The state rows whose bounds hold between the nodes.
+    pub(super) interval_rows: &'a [usize],
+    /// Subproblem columns (every buffer included).
+    pub(super) n_vars: usize,
+    pub(super) rb: RowBuilder,
+    pub(super) nodal: nodal::NodalPlacement,
+    pub(super) peaks: peaks::PeakPlacement,
+    /// Sizes of the second-order cones, in row order.
+    pub(super) socs: Vec<usize>,
+}
+
+/// One family of subproblem rows: its cone and how it appends its rows.
+pub(super) trait RowFamily {
+    /// The cone of its rows.
+    const CONE: Cone;
+    /// Appends its rows to `cx.rb` (and records what later stages need in `cx`).
+    fn push(cx: &mut Placement<'_>);
+}
+
+/// Declares [`Family`], one variant per row family, in placement order within each cone.
+macro_rules! row_families {
+    ($($(#[$attr:meta])* $variant:ident => $ty:ty),* $(,)?) => {
+        /// Every row family of the subproblem.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub(super) enum Family {
+            $($(#[$attr])* #[doc = stringify!($ty)] $variant),*
+        }
+
+        impl Family {
+            /// All families, in placement order within each cone.
+            pub(super) const ALL: &'static [Family] = &[$($(#[$attr])* Family::$variant),*];
+
+            /// Its cone.
+            pub(super) fn cone(self) -> Cone {
+                match self {
+                    $($(#[$attr])* Family::$variant => <$ty as RowFamily>::CONE),*
+                }
+            }
+
+            /// Appends its rows.
+            pub(super) fn push(self, cx: &mut Placement<'_>) {
+                match self {
+                    $($(#[$attr])* Family::$variant => <$ty as RowFamily>::push(cx)),*
+                }
+            }
+        }
+    };
+}
+
+row_families! {
+    Dynamics => dynamics::Dynamics,
+    Boundary => boundary::Boundary,
+    Bounds => bounds::Bounds,
+    NodalInequalities => nodal::Inequalities,
+    StatePeaks => peaks::StatePeaks,
+    FunctionPeaks => peaks::FunctionPeaks,
+    #[cfg(test)]
+    ControlRate => control_rate::ControlRate,
+    Nonnegativity => bounds::Nonnegativity,
+    Balls => nodal::Balls,
+}
 
 #[derive(Debug, Clone, Copy)]
 pub(super) enum Source {

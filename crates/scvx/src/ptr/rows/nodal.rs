@@ -5,7 +5,7 @@
 //! - a ball `‖g‖ ≤ r`, one second-order cone per node with a buffer on its radius:
 //!   `[r + ν_b; g(z̄) + ∇g·(z − z̄)] ∈ SOC`.
 
-use super::{NodalRow, RowBuilder, Source, VarLayout};
+use super::{Cone, NodalRow, Placement, RowBuilder, RowFamily, Source, VarLayout};
 use crate::{NodalConstraint, NodalKind, Ocp};
 
 /// The nodal rows as placed: the rows, each buffer's owner and the balls still to place.
@@ -102,4 +102,27 @@ pub(in crate::ptr) fn push_balls(
         socs.push(1 + c.function.n_outputs());
     }
     socs
+}
+
+/// The nodal inequalities (and the balls' buffers) as a [`RowFamily`].
+pub(in crate::ptr) struct Inequalities;
+
+impl RowFamily for Inequalities {
+    const CONE: Cone = Cone::Nonnegative;
+
+    fn push(cx: &mut Placement<'_>) {
+        cx.nodal = push_inequalities(cx.v, cx.ocp, cx.g_offsets, &mut cx.rb);
+    }
+}
+
+/// The balls' second-order cones as a [`RowFamily`].
+pub(in crate::ptr) struct Balls;
+
+impl RowFamily for Balls {
+    const CONE: Cone = Cone::SecondOrder;
+
+    fn push(cx: &mut Placement<'_>) {
+        let socs = push_balls(cx.v, cx.ocp, cx.g_offsets, &mut cx.nodal, &mut cx.rb);
+        cx.socs.extend(socs);
+    }
 }

@@ -10,6 +10,7 @@
 
 use armature_symbolic::SparsityPattern;
 
+use super::{Cone, Placement, RowFamily};
 use super::{IntervalMeta, PeakOf, PeakRow, RowBuilder, Source, VarLayout};
 use crate::{IntervalConstraint, Ocp};
 
@@ -24,7 +25,7 @@ pub(in crate::ptr) struct PeakPlacement {
     pub(in crate::ptr) stride: Vec<usize>,
     pub(in crate::ptr) intervals: Vec<IntervalMeta>,
     /// The next peak buffer's column.
-    buffer: usize,
+    pub(in crate::ptr) buffer: usize,
 }
 
 /// The segments an interval constraint covers (clamped to the grid; checked in `start`).
@@ -87,16 +88,15 @@ impl PeakPlacement {
     }
 }
 
-/// Appends the state rows' peak rows (segment-major), their buffers from column `buffer`.
+/// Appends the state rows' peak rows (segment-major), their buffers from `placed.buffer`.
 pub(in crate::ptr) fn push_state_peaks(
     v: &VarLayout,
     ocp: &Ocp,
     tp: &SparsityPattern,
     rows: &[usize],
-    buffer: usize,
+    placed: &mut PeakPlacement,
     rb: &mut RowBuilder,
-) -> PeakPlacement {
-    let mut placed = PeakPlacement { buffer, ..PeakPlacement::default() };
+) {
     for k in 0..v.nn - 1 {
         for &r in rows {
             for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
@@ -112,7 +112,6 @@ pub(in crate::ptr) fn push_state_peaks(
         }
     }
     placed.stride = vec![0; placed.src.len()];
-    placed
 }
 
 /// Appends the interval constraints' peak rows (constraint, segment, output) with their
@@ -161,5 +160,27 @@ pub(in crate::ptr) fn push_function_peaks(
         pt0 += segs.len() * pts;
         val0 += segs.len() * pts * nout;
         jac0 += segs.len() * pts * nnz;
+    }
+}
+
+/// The state bounds at their peaks between the nodes as a [`RowFamily`].
+pub(in crate::ptr) struct StatePeaks;
+
+impl RowFamily for StatePeaks {
+    const CONE: Cone = Cone::Nonnegative;
+
+    fn push(cx: &mut Placement<'_>) {
+        push_state_peaks(cx.v, cx.ocp, cx.tp, cx.interval_rows, &mut cx.peaks, &mut cx.rb);
+    }
+}
+
+/// The interval constraints at their peaks between the nodes as a [`RowFamily`].
+pub(in crate::ptr) struct FunctionPeaks;
+
+impl RowFamily for FunctionPeaks {
+    const CONE: Cone = Cone::Nonnegative;
+
+    fn push(cx: &mut Placement<'_>) {
+        push_function_peaks(cx.v, cx.ocp, cx.tp, cx.pts, &mut cx.peaks, &mut cx.rb);
     }
 }

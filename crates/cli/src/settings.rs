@@ -1,0 +1,80 @@
+//! The `[settings]` table of task and problem files: deserialized straight into
+//! [`armature_scvx::PtrSettings`] (unknown keys and wrong types are located by the TOML
+//! parser), then validated, with an unusable value located at its key.
+
+use std::ops::Range;
+
+use armature_scvx::PtrSettings;
+use toml::de::{DeTable, DeValue};
+
+use crate::task::{LocatedError, Source};
+
+/// Checks the settings of a file, locating an unusable value at its key under `[settings]`.
+///
+/// # Errors
+/// The first unusable setting, as `file:line:col: [settings] FIELD …`.
+pub fn checked(settings: &PtrSettings, src: Source<'_>) -> Result<PtrSettings, LocatedError> {
+    match settings.validate() {
+        Ok(()) => Ok(settings.clone()),
+        Err(e) => {
+            let mut path = vec!["settings"];
+            path.extend(e.field.split('.'));
+            let at = key_span(src.text, &path).map_or(0, |r| r.start);
+            Err(src.error_at(at, format!("[settings] {} {}", e.field, e.reason)))
+        }
+    }
+}
+
+/// The span of the value at `path` (keys from the document's root), or of the deepest key on
+/// the path that the document has; `None` when the text does not parse or lacks `path[0]`.
+pub fn key_span(text: &str, path: &[&str]) -> Option<Range<usize>> {
+    let root = DeTable::parse(text).ok()?;
+    let mut table: &DeTable<'_> = root.get_ref();
+    let mut found = None;
+    for key in path {
+        let Some((_, value)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == *key) else {
+            break;
+        };
+        found = Some(value.span());
+        match value.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = "[robot]\nname = \"arm7\"\n\n[settings]\nlam_tr = 2.0\n\n\
+                        [settings.subproblem.clarabel]\nmax_iterations = 0\n";
+
+    #[test]
+    fn a_key_is_found_at_its_value() {
+        let r = key_span(TEXT, &["settings", "lam_tr"]).unwrap();
+        assert_eq!(&TEXT[r], "2.0");
+        let r = key_span(TEXT, &["settings", "subproblem", "clarabel", "max_iterations"]).unwrap();
+        assert_eq!(&TEXT[r], "0");
+    }
+
+    #[test]
+    fn a_missing_key_falls_back_to_its_deepest_table() {
+        let r = key_span(TEXT, &["settings", "subproblem", "interior_point", "tolerance"]);
+        assert_eq!(&TEXT[r.unwrap()], "subproblem", "the key in `[settings.subproblem.clarabel]`");
+        assert_eq!(key_span(TEXT, &["time"]), None);
+        assert_eq!(key_span("[[[", &["settings"]), None);
+    }
+
+    #[test]
+    fn an_unusable_setting_is_located_at_its_key() {
+        let text = "[settings]\nmax_iterations = 3\n\n[settings.subproblem.clarabel]\n\
+                    max_iterations = 0\n";
+        let settings: PtrSettings =
+            toml::from_str::<toml::Table>(text).unwrap()["settings"].clone().try_into().unwrap();
+        let e = checked(&settings, Source { name: "t.toml", text }).unwrap_err();
+        assert_eq!((e.line, e.column), (5, 18), "{e}");
+        assert!(e.message.contains("subproblem.clarabel.max_iterations"), "{e}");
+    }
+}
