@@ -90,8 +90,65 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     let spec = resolve_robot(robot.name.get_ref(), path);
     let chain = armature_kinematics::load_robot(&spec, robot.base.as_deref(), robot.tip.as_deref())
         .map_err(|e| src.error(&robot.name, e.to_string()))?;
+    let limits = joint_limits(task, &chain, src)?;
+    let (t_min, t_max) = time_window(task, src)?;
+    let (nodes, per_segment) = node_count(task, src)?;
+    let waypoints = planned_waypoints(task, nodes, per_segment, src)?;
+    let keyframes = keyframes(task, &waypoints, src)?;
+    let orientation = orientation_ranges(task, &waypoints, src)?;
+    let table_height = match &task.table_height {
+        Some(h) if !h.get_ref().is_finite() => {
+            return Err(src.error(h, "table_height must be finite"));
+        }
+        h => h.as_ref().map(|h| *h.get_ref()),
+    };
+    let collision = collision(task, &chain, src)?;
+    let settings = crate::settings::checked(&task.settings, src)?;
+    let guess = initial_guess(task, &chain, &keyframes, &limits, (t_min, t_max), nodes, src)?;
+    let mut problem = states_and_dynamics(task, &chain, &limits, &guess, nodes);
+    problem.time =
+        Time::Free { min: t_min, max: t_max, guess: guess.duration, minimize: task.time.minimize };
+    let task_parts = TaskParts {
+        waypoints: &waypoints,
+        orientation: &orientation,
+        table_height,
+        collision: collision.as_ref(),
+    };
+    add_task_constraints(&mut problem, &chain, &task_parts, task.robot.velocity_limit_peaks)
+        .map_err(|e| src.error(&robot.name, e))?;
+    let JointLimits { velocity: velocity_limit, torque: torque_limit, .. } = limits;
+    Ok(Plan {
+        chain,
+        nodes,
+        waypoints,
+        velocity_limit,
+        torque_limit,
+        table_height,
+        margin: collision.as_ref().map_or(0.0, |(_, m, _)| *m),
+        collision: collision.map(|(m, _, _)| m),
+        orientation,
+        problem,
+        dilation_guess: guess.dilation,
+        ik: guess.ik,
+        settings,
+    })
+}
+
+/// The robot's simple dynamics and limits, checked against its joints.
+struct JointLimits {
+    inertia: Vec<f64>,
+    velocity: Vec<f64>,
+    torque: Vec<f64>,
+}
+
+/// `[robot]`'s inertias, velocity and torque limits (the robot's own where not given).
+fn joint_limits(
+    task: &TaskFile,
+    chain: &Chain,
+    src: Source<'_>,
+) -> Result<JointLimits, LocatedError> {
+    let robot = &task.robot;
     let n = chain.dof();
-    // Dynamics and limits.
     let inertia = robot.inertia.get_ref();
     if inertia.len() != n {
         return Err(src.error(&robot.inertia, format!("{} inertias for {n} joints", inertia.len())));
@@ -131,11 +188,14 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         }
         Ok(values)
     };
-    let velocity_limit =
+    let velocity =
         limit("velocity_limit", &robot.velocity_limit, &|i| chain.joints()[i].limits.velocity)?;
-    let torque_limit =
-        limit("torque_limit", &robot.torque_limit, &|i| chain.joints()[i].limits.effort)?;
-    // Time.
+    let torque = limit("torque_limit", &robot.torque_limit, &|i| chain.joints()[i].limits.effort)?;
+    Ok(JointLimits { inertia: inertia.clone(), velocity, torque })
+}
+
+/// `[time]`: the final time's window `[min, max]`.
+fn time_window(task: &TaskFile, src: Source<'_>) -> Result<(f64, f64), LocatedError> {
     let t_max = *task.time.max.get_ref();
     if !(t_max.is_finite() && t_max > 0.0) {
         return Err(src.error(&task.time.max, format!("max {t_max} must be a positive number")));
@@ -145,14 +205,18 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         let at = task.time.min.as_ref().map_or(task.time.max.span().start, |m| m.span().start);
         return Err(src.error_at(at, format!("min {t_min} must be in [0, max)")));
     }
-    // Nodes and waypoints.
+    Ok((t_min, t_max))
+}
+
+/// `[nodes]`: the node count, and the nodes per segment when given that way.
+fn node_count(task: &TaskFile, src: Source<'_>) -> Result<(usize, Option<usize>), LocatedError> {
     let w = &task.waypoints;
     if w.len() < 2 {
         return Err(
             src.error_at(0, format!("need at least 2 waypoints (start and goal), got {}", w.len()))
         );
     }
-    let (nodes, per_segment) = match (&task.nodes.count, &task.nodes.per_segment) {
+    Ok(match (&task.nodes.count, &task.nodes.per_segment) {
         (Some(c), None) => {
             if !(2..=armature_scvx::MAX_NODES).contains(c.get_ref()) {
                 let max = armature_scvx::MAX_NODES;
@@ -181,7 +245,18 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         (Some(c), Some(_)) => {
             return Err(src.error(c, "give either count or per_segment, not both"));
         }
-    };
+    })
+}
+
+/// The waypoints with their nodes: distinct names, finite positions, increasing nodes from
+/// the start (node 0) to the goal (the last node).
+fn planned_waypoints(
+    task: &TaskFile,
+    nodes: usize,
+    per_segment: Option<usize>,
+    src: Source<'_>,
+) -> Result<Vec<PlannedWaypoint>, LocatedError> {
+    let w = &task.waypoints;
     let mut waypoints: Vec<PlannedWaypoint> = Vec::new();
     for (i, wp) in w.iter().enumerate() {
         let name = wp.name.get_ref();
@@ -231,15 +306,31 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         }
         waypoints.push(PlannedWaypoint { name: name.clone(), node, position, tolerance });
     }
-    let node_of =
-        |name: &toml::Spanned<String>| {
-            waypoints.iter().find(|p| &p.name == name.get_ref()).map(|p| p.node).ok_or_else(|| {
-                src.error(name, format!("no waypoint is named '{}'", name.get_ref()))
-            })
-        };
-    // Keyframes for the IK guess.
+    Ok(waypoints)
+}
+
+/// The node of the waypoint `name` names.
+fn node_of(
+    waypoints: &[PlannedWaypoint],
+    name: &toml::Spanned<String>,
+    src: Source<'_>,
+) -> Result<usize, LocatedError> {
+    waypoints
+        .iter()
+        .find(|p| &p.name == name.get_ref())
+        .map(|p| p.node)
+        .ok_or_else(|| src.error(name, format!("no waypoint is named '{}'", name.get_ref())))
+}
+
+/// The IK guess's keyframes: each waypoint's position and, unless free, its orientation.
+fn keyframes(
+    task: &TaskFile,
+    waypoints: &[PlannedWaypoint],
+    src: Source<'_>,
+) -> Result<Vec<Keyframe>, LocatedError> {
+    let w = &task.waypoints;
     let mut keyframes = Vec::new();
-    for (wp, p) in w.iter().zip(&waypoints) {
+    for (wp, p) in w.iter().zip(waypoints) {
         let quaternion_wxyz = match wp.orientation.as_ref().map(|o| (o, o.get_ref())) {
             None => None,
             Some((_, OrientationValue::Word(s))) if s == "free" => None,
@@ -255,10 +346,18 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         };
         keyframes.push(Keyframe { node: p.node, position: p.position, quaternion_wxyz });
     }
-    // Orientation ranges.
-    let (mut ranges, mut orientation) = (Vec::new(), Vec::new());
+    Ok(keyframes)
+}
+
+/// `[[orientation]]`: the ranges, checked.
+fn orientation_ranges(
+    task: &TaskFile,
+    waypoints: &[PlannedWaypoint],
+    src: Source<'_>,
+) -> Result<Vec<PlannedOrientation>, LocatedError> {
+    let mut orientation = Vec::new();
     for o in &task.orientation {
-        let r = SO3::from_quaternion_wxyz(*o.quaternion_wxyz.get_ref())
+        SO3::from_quaternion_wxyz(*o.quaternion_wxyz.get_ref())
             .map_err(|e| src.error(&o.quaternion_wxyz, e.to_string()))?;
         let deg = *o.tolerance_deg.get_ref();
         if !(deg.is_finite() && deg > 0.0 && deg < 180.0) {
@@ -266,7 +365,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 src.error(&o.tolerance_deg, format!("tolerance_deg {deg} must be in (0, 180)"))
             );
         }
-        let (a, b) = (node_of(&o.from)?, node_of(&o.to)?);
+        let (a, b) = (node_of(waypoints, &o.from, src)?, node_of(waypoints, &o.to, src)?);
         if a >= b {
             return Err(src.error(
                 &o.to,
@@ -277,7 +376,6 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 ),
             ));
         }
-        ranges.push((r, deg, a, b, format!("{}..{}", o.from.get_ref(), o.to.get_ref())));
         orientation.push(PlannedOrientation {
             name: format!("{}..{}", o.from.get_ref(), o.to.get_ref()),
             quaternion_wxyz: *o.quaternion_wxyz.get_ref(),
@@ -286,13 +384,19 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             last: b,
         });
     }
-    let table_height = match &task.table_height {
-        Some(h) if !h.get_ref().is_finite() => {
-            return Err(src.error(h, "table_height must be finite"));
-        }
-        h => h.as_ref().map(|h| *h.get_ref()),
-    };
-    let collision = match &task.collision {
+    Ok(orientation)
+}
+
+/// A collision model with its margin and, when held between the nodes, its activation.
+type PlannedCollision = (CollisionModel, f64, Option<f64>);
+
+/// `[collision]`: the model for the robot, its margin and activation.
+fn collision(
+    task: &TaskFile,
+    chain: &Chain,
+    src: Source<'_>,
+) -> Result<Option<PlannedCollision>, LocatedError> {
+    Ok(match &task.collision {
         None => None,
         Some(c) => {
             let spec = c.get_ref();
@@ -309,10 +413,32 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 links: spec.links.clone(),
                 obstacles: spec.obstacles.clone(),
             };
-            let model = scene.model(&chain).map_err(|e| src.error(c, e.to_string()))?;
+            let model = scene.model(chain).map_err(|e| src.error(c, e.to_string()))?;
             Some((model, spec.margin, spec.between_nodes.then_some(spec.activation)))
         }
-    };
+    })
+}
+
+/// The initial guess: IK through the keyframes, timed by a spline at the joint limits.
+struct Guess {
+    ik: IkTrajectory,
+    spline: JointSpline,
+    duration: f64,
+    dilation: Vec<f64>,
+}
+
+/// IK through the keyframes, time-parameterized by a spline (zero end velocities) whose
+/// duration the limits allow, clamped into the time window.
+fn initial_guess(
+    task: &TaskFile,
+    chain: &Chain,
+    keyframes: &[Keyframe],
+    limits: &JointLimits,
+    (t_min, t_max): (f64, f64),
+    nodes: usize,
+    src: Source<'_>,
+) -> Result<Guess, LocatedError> {
+    let n = chain.dof();
     let mode = match task.initialization.ik.get_ref().as_str() {
         "sequential" => Mode::Sequential,
         "parallel" => Mode::Parallel,
@@ -323,37 +449,54 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             ));
         }
     };
-    let settings = crate::settings::checked(&task.settings, src)?;
-    // The IK guess, time-parameterized by a spline (zero end velocities).
     let ik = ik_interpolation(
-        &chain,
-        &keyframes,
+        chain,
+        keyframes,
         &vec![0.0; n],
         &IkSettings { restarts: task.initialization.restarts, ..IkSettings::default() },
         mode,
     )
     .map_err(|e| src.error_at(0, format!("IK initialization: {e}")))?;
-    let amax: Vec<f64> = (0..n).map(|j| torque_limit[j] / inertia[j]).collect();
-    let knots = JointSpline::time_optimal_knots(&ik.q, &velocity_limit)
+    let amax: Vec<f64> = (0..n).map(|j| limits.torque[j] / limits.inertia[j]).collect();
+    let knots = JointSpline::time_optimal_knots(&ik.q, &limits.velocity)
         .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
     let spline = JointSpline::through_timed(&ik.q, &knots)
         .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
     let duration =
-        spline.min_duration(&velocity_limit, &amax).clamp(t_min.max(1e-3 * t_max), t_max);
+        spline.min_duration(&limits.velocity, &amax).clamp(t_min.max(1e-3 * t_max), t_max);
+    let mut dilation: Vec<f64> = knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
+    dilation.push(dilation[nodes - 2]);
+    Ok(Guess { ik, spline, duration, dilation })
+}
+
+/// The states (angles, velocities), the torques and the dynamics `q̈ = τ / I`, with their
+/// bounds, boundary values and guesses.
+fn states_and_dynamics(
+    task: &TaskFile,
+    chain: &Chain,
+    limits: &JointLimits,
+    guess: &Guess,
+    nodes: usize,
+) -> Problem {
+    let n = chain.dof();
+    let robot = &task.robot;
+    let (ik, spline, duration) = (&guess.ik, &guess.spline, guess.duration);
+    let (inertia, velocity_limit, torque_limit) =
+        (&limits.inertia, &limits.velocity, &limits.torque);
     let (qlo, qhi) = chain.position_limits();
     let angle = State::new("angle", n)
         .bounds(&qlo, &qhi)
         .initial_value(&ik.q[0])
         .guess(ik.q.iter().flatten().copied().collect());
     let velocity = State::new("velocity", n)
-        .bounds(&velocity_limit.iter().map(|v| -v).collect::<Vec<_>>(), &velocity_limit)
+        .bounds(&velocity_limit.iter().map(|v| -v).collect::<Vec<_>>(), velocity_limit)
         .initial_value(&vec![0.0; n])
         .final_value(&vec![0.0; n])
         .guess((0..nodes).flat_map(|k| spline.velocity(k, duration)).collect());
     let velocity =
         if robot.velocity_limit_peaks { velocity.with_interval_bounds() } else { velocity };
     let torque = Control::new("torque", n)
-        .bounds(&torque_limit.iter().map(|t| -t).collect::<Vec<_>>(), &torque_limit)
+        .bounds(&torque_limit.iter().map(|t| -t).collect::<Vec<_>>(), torque_limit)
         .guess(
             (0..nodes)
                 .flat_map(|k| {
@@ -362,21 +505,51 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
                 })
                 .collect(),
         );
-    let (a, v, tau) = (angle.expr(), velocity.expr(), torque.expr());
-    let fk = chain.symbolic_fk(&a).map_err(|e| src.error(&robot.name, e.to_string()))?;
+    let inv: Vec<f64> = inertia.iter().map(|i| 1.0 / i).collect();
+    Problem {
+        dynamics: vec![velocity.expr(), &Expr::constant_vector(&inv) * &torque.expr()],
+        states: vec![angle, velocity],
+        controls: vec![torque],
+        ..Problem::new(nodes)
+    }
+}
+
+/// What the task asks of the end effector and the links.
+struct TaskParts<'a> {
+    waypoints: &'a [PlannedWaypoint],
+    orientation: &'a [PlannedOrientation],
+    table_height: Option<f64>,
+    collision: Option<&'a PlannedCollision>,
+}
+
+/// The task's constraints on the forward kinematics of `problem`'s angles: waypoint balls,
+/// orientation ranges, the table, clearances; and the outputs (end-effector pose, frames,
+/// clearances).
+///
+/// # Errors
+/// The symbolic forward kinematics' (for the robot).
+fn add_task_constraints(
+    problem: &mut Problem,
+    chain: &Chain,
+    t: &TaskParts<'_>,
+    velocity_limit_peaks: bool,
+) -> Result<(), String> {
+    let nodes = problem.nodes;
+    let fk = chain.symbolic_fk(&problem.states[0].expr()).map_err(|e| e.to_string())?;
     let p_ee = fk.ee_position();
     // With the velocity peaks bounded, the limits' integral only has to catch what lies
     // between the integration grid's points: a budget of 1e-5 (1e-6 slows the solve).
-    let eps = if robot.velocity_limit_peaks { 1e-5 } else { 1e-6 };
+    let eps = if velocity_limit_peaks { 1e-5 } else { 1e-6 };
     let limits = CtcsOptions { penalty: Penalty::Relu, eps, group: 0 };
     let mut constraints: Vec<ProblemConstraint> = Vec::new();
-    if let Some(h) = table_height {
+    if let Some(h) = t.table_height {
         constraints.push(ProblemConstraint {
             constraint: (Expr::scalar(h) - p_ee.at(2)).le(0.0).ctcs().named("table"),
             ctcs: limits,
         });
     }
-    let mut balls: Vec<Ball> = waypoints
+    let mut balls: Vec<Ball> = t
+        .waypoints
         .iter()
         .map(|p| Ball {
             name: format!("waypoint {}", p.name),
@@ -385,13 +558,15 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             nodes: vec![p.node],
         })
         .collect();
-    for (r, deg, first, last, name) in &ranges {
+    for o in t.orientation {
+        let r = SO3::from_quaternion_wxyz(o.quaternion_wxyz).map_err(|e| e.to_string())?;
+        let (deg, first, last, name) = (o.tolerance_deg, o.first, o.last, &o.name);
         let log = Expr::from_matrix(&r.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
         constraints.push(
             (log.norm2() - deg.to_radians())
                 .le(0.0)
                 .ctcs()
-                .over(*first, *last)
+                .over(first, last)
                 .named(format!("orientation {name} within {deg}°"))
                 .into(),
         );
@@ -399,7 +574,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             name: format!("orientation {name} within {deg}° at the nodes"),
             g: log,
             radius: deg.to_radians(),
-            nodes: (*first..=*last).collect(),
+            nodes: (first..=last).collect(),
         });
     }
     let mut between_nodes = Vec::new();
@@ -408,7 +583,7 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     for (name, frame) in &fk.frames {
         outputs.push((format!("T_{name}"), frame.clone()));
     }
-    if let Some((model, margin, activation)) = &collision {
+    if let Some((model, margin, activation)) = t.collision {
         let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
         let distances = model.symbolic_distances(&positions);
         if !distances.is_empty() {
@@ -437,37 +612,12 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
             );
         }
     }
-    let inv: Vec<f64> = inertia.iter().map(|i| 1.0 / i).collect();
-    let problem = Problem {
-        dynamics: vec![v.clone(), &Expr::constant_vector(&inv) * &tau],
-        states: vec![angle, velocity],
-        controls: vec![torque],
-        time: Time::Free { min: t_min, max: t_max, guess: duration, minimize: task.time.minimize },
-        constraints,
-        balls,
-        between_nodes,
-        outputs,
-        state_bounds_ctcs: Some(limits),
-        ..Problem::new(nodes)
-    };
-    let mut dilation_guess: Vec<f64> =
-        knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
-    dilation_guess.push(dilation_guess[nodes - 2]);
-    Ok(Plan {
-        chain,
-        nodes,
-        waypoints,
-        velocity_limit,
-        torque_limit,
-        table_height,
-        margin: collision.as_ref().map_or(0.0, |(_, m, _)| *m),
-        collision: collision.map(|(m, _, _)| m),
-        orientation,
-        problem,
-        dilation_guess,
-        ik,
-        settings,
-    })
+    problem.constraints = constraints;
+    problem.balls = balls;
+    problem.between_nodes = between_nodes;
+    problem.outputs = outputs;
+    problem.state_bounds_ctcs = Some(limits);
+    Ok(())
 }
 
 impl Plan {

@@ -378,6 +378,52 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
             src.error(&file.nodes, format!("nodes must be 2 to {}", armature_scvx::MAX_NODES))
         );
     }
+    let mut symbols = parameters(file, src)?;
+    let (states, controls) = variables(file, &mut symbols, src)?;
+    let dynamics = file
+        .states
+        .iter()
+        .map(|s| {
+            parse_expr(s.dynamics.get_ref(), &symbols).map_err(|e| expr_error(src, &s.dynamics, e))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let (constraints, between_nodes) =
+        constraints(file, &symbols, nodes, (&states, &controls), src)?;
+    let balls = balls(file, &symbols, nodes, src)?;
+    let outputs = file
+        .outputs
+        .iter()
+        .map(|(name, e)| {
+            Ok((
+                name.clone(),
+                parse_expr(e.get_ref(), &symbols).map_err(|err| expr_error(src, e, err))?,
+            ))
+        })
+        .collect::<Result<Vec<_>, LocatedError>>()?;
+    let time = time(file, src)?;
+    let settings = crate::settings::checked(&file.settings, src)?;
+    let problem = Problem {
+        nodes,
+        states,
+        controls,
+        dynamics,
+        time,
+        constraints,
+        balls,
+        between_nodes,
+        outputs,
+        state_bounds_ctcs: file.state_bounds_ctcs.then_some(CtcsOptions {
+            penalty: Penalty::Relu,
+            eps: 1e-6,
+            group: 0,
+        }),
+        dilation: None,
+    };
+    Ok((problem, settings))
+}
+
+/// `[parameters]` as leaves of the symbol table.
+fn parameters(file: &ProblemFile, src: Source<'_>) -> Result<SymbolTable, LocatedError> {
     let mut symbols = SymbolTable::new();
     for (name, v) in &file.parameters {
         let vals = match v.get_ref() {
@@ -394,6 +440,15 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         };
         symbols.insert_leaf(&Expr::parameter(name, shape, &vals));
     }
+    Ok(symbols)
+}
+
+/// `[[states]]` and `[[controls]]`, added to the symbol table.
+fn variables(
+    file: &ProblemFile,
+    symbols: &mut SymbolTable,
+    src: Source<'_>,
+) -> Result<(Vec<State>, Vec<Control>), LocatedError> {
     let mut states = Vec::new();
     for s in &file.states {
         let name = s.name.get_ref();
@@ -436,18 +491,22 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         symbols.insert_leaf(&ctl.expr());
         controls.push(ctl);
     }
-    let dynamics = file
-        .states
-        .iter()
-        .map(|s| {
-            parse_expr(s.dynamics.get_ref(), &symbols).map_err(|e| expr_error(src, &s.dynamics, e))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    Ok((states, controls))
+}
+
+/// `[[constraints]]`, with the between-nodes parts of those that ask for them.
+fn constraints(
+    file: &ProblemFile,
+    symbols: &SymbolTable,
+    nodes: usize,
+    variables: (&[State], &[Control]),
+    src: Source<'_>,
+) -> Result<(Vec<ProblemConstraint>, Vec<BetweenNodes>), LocatedError> {
     let mut constraints = Vec::new();
     let mut between_nodes = Vec::new();
     for c in &file.constraints {
-        let mut k = parse_constraint(c.expr.get_ref(), &symbols)
-            .map_err(|e| expr_error(src, &c.expr, e))?;
+        let mut k =
+            parse_constraint(c.expr.get_ref(), symbols).map_err(|e| expr_error(src, &c.expr, e))?;
         if c.ctcs {
             k = k.ctcs();
         }
@@ -479,15 +538,25 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
             ctcs.group = g;
         }
         if c.between_nodes {
-            between_nodes.push(between(src, c, &k, nodes, (&states, &controls))?);
+            between_nodes.push(between(src, c, &k, nodes, variables)?);
         } else if c.activation.is_some() {
             return Err(src.error(&c.expr, "activation applies only with between_nodes = true"));
         }
         constraints.push(ProblemConstraint { constraint: k, ctcs });
     }
+    Ok((constraints, between_nodes))
+}
+
+/// `[[balls]]`.
+fn balls(
+    file: &ProblemFile,
+    symbols: &SymbolTable,
+    nodes: usize,
+    src: Source<'_>,
+) -> Result<Vec<Ball>, LocatedError> {
     let mut balls = Vec::new();
     for b in &file.balls {
-        let g = parse_expr(b.expr.get_ref(), &symbols).map_err(|e| expr_error(src, &b.expr, e))?;
+        let g = parse_expr(b.expr.get_ref(), symbols).map_err(|e| expr_error(src, &b.expr, e))?;
         let radius = *b.radius.get_ref();
         if !(radius.is_finite() && radius > 0.0) {
             return Err(src.error(&b.radius, format!("radius {radius} must be > 0")));
@@ -504,17 +573,12 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
             nodes: b.nodes.get_ref().clone(),
         });
     }
-    let outputs = file
-        .outputs
-        .iter()
-        .map(|(name, e)| {
-            Ok((
-                name.clone(),
-                parse_expr(e.get_ref(), &symbols).map_err(|err| expr_error(src, e, err))?,
-            ))
-        })
-        .collect::<Result<Vec<_>, LocatedError>>()?;
-    let time = match (&file.time.fixed, &file.time.max) {
+    Ok(balls)
+}
+
+/// `[time]`: fixed, or free in `[min, max]` with a guess.
+fn time(file: &ProblemFile, src: Source<'_>) -> Result<Time, LocatedError> {
+    Ok(match (&file.time.fixed, &file.time.max) {
         (Some(t), None) => {
             if !(t.get_ref().is_finite() && *t.get_ref() > 0.0) {
                 return Err(src.error(t, "fixed time must be > 0"));
@@ -536,26 +600,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
         }
         (Some(t), Some(_)) => return Err(src.error(t, "give either fixed or max, not both")),
         (None, None) => return Err(src.error(&file.nodes, "[time] needs fixed or max")),
-    };
-    let settings = crate::settings::checked(&file.settings, src)?;
-    let problem = Problem {
-        nodes,
-        states,
-        controls,
-        dynamics,
-        time,
-        constraints,
-        balls,
-        between_nodes,
-        outputs,
-        state_bounds_ctcs: file.state_bounds_ctcs.then_some(CtcsOptions {
-            penalty: Penalty::Relu,
-            eps: 1e-6,
-            group: 0,
-        }),
-        dilation: None,
-    };
-    Ok((problem, settings))
+    })
 }
 
 /// The between-nodes part of constraint `c` (parsed as `k`): its `g ≤ 0` over `over`'s

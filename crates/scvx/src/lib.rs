@@ -10,18 +10,29 @@ pub mod problem;
 pub mod ptr;
 mod sparse;
 
+// Modeling: a problem by name, its variables and constraints.
+pub use problem::{
+    Ball, BetweenNodes, Boundary, Control, CtcsOptions, MAX_NODES, Problem, ProblemConstraint,
+    State, Time,
+};
+
+// Solving: compilation, the solver-level problem, the loop and its settings.
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
     DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
     DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS,
 };
-pub use problem::{
-    Ball, BetweenNodes, Boundary, CompiledProblem, Control, CtcsOptions, MAX_NODES, Problem,
-    ProblemConstraint, ProblemError, Solution, SolutionLayout, SolutionTimings, State, Time,
-};
+pub use ipm::IpmSettings;
+pub use problem::CompiledProblem;
 pub use ptr::{
-    ClarabelSettings, ConstraintRef, IntervalConstraint, Iteration, IterationTable, Merit,
-    NodalConstraint, NodalKind, Ocp, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
-    SettingsError, SubproblemDimensions, SubproblemSettings, SubproblemSolver, SubproblemStatus,
-    Timings, Trajectory, TrustRegionUpdate, Violation,
+    ClarabelSettings, Increment, IntervalConstraint, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
+    PtrSettings, SettingsError, SubproblemDimensions, SubproblemSettings, SubproblemSolver,
+    TrustRegionUpdate,
+};
+
+// Results: statuses, records, violations, solutions and errors.
+pub use problem::{ProblemError, Solution, SolutionLayout, SolutionTimings};
+pub use ptr::{
+    ConstraintRef, Iteration, IterationTable, PtrError, PtrResult, PtrStatus, SubproblemStatus,
+    Timings, Trajectory, Violation,
 };

@@ -35,9 +35,8 @@ pub struct Ocp {
     /// Linear cost on final-state components `(state index, weight)`: a positive weight
     /// minimizes `x_{N−1}[i]`, a negative one maximizes it.
     pub final_cost: Vec<(usize, f64)>,
-    /// CTCS increments `(state row, ε, first node, last node)`: `y_{k+1} − y_k ≤ ε` for the
-    /// segments of the interval.
-    pub increments: Vec<(usize, f64, usize, usize)>,
+    /// CTCS increments: `y_{k+1} − y_k ≤ ε` for the segments of each interval.
+    pub increments: Vec<Increment>,
     /// Nodal constraints, linearised each iteration with virtual buffers.
     pub nodal: Vec<NodalConstraint>,
     /// State rows whose bounds `x_min ≤ x(t) ≤ x_max` are also enforced between the nodes,
@@ -53,6 +52,21 @@ pub struct Ocp {
     /// per segment and output, one buffered row at the output's peak on the integration
     /// grid (see [`IntervalConstraint`]).
     pub interval_constraints: Vec<IntervalConstraint>,
+}
+
+/// The nodal increments of a CTCS integral state `y` over nodes `first..=last`:
+/// `y_{k+1} − y_k ≤ ε` for `k` in `first..last` (the integral of the violation may grow by
+/// at most ε per segment).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Increment {
+    /// The integral's state row.
+    pub state: usize,
+    /// The budget ε per segment.
+    pub eps: f64,
+    /// First node of the interval.
+    pub first: usize,
+    /// Last node of the interval.
+    pub last: usize,
 }
 
 /// A constraint `g(x(t)) ≤ 0` (entrywise) on the states between the nodes of segments

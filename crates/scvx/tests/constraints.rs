@@ -56,7 +56,12 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         final_cost: vec![],
-        increments: vec![(2, 1e-6, 0, nodes - 1)],
+        increments: vec![armature_scvx::Increment {
+            state: 2,
+            eps: 1e-6,
+            first: 0,
+            last: nodes - 1,
+        }],
         nodal: vec![],
         interval_bounds: vec![],
         interval_constraints: Vec::new(),

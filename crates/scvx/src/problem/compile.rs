@@ -378,7 +378,12 @@ impl Problem {
             increments: groups
                 .iter()
                 .enumerate()
-                .map(|(i, (g, o))| (n_named + i, o.eps, g.first, g.last))
+                .map(|(i, (g, o))| crate::Increment {
+                    state: n_named + i,
+                    eps: o.eps,
+                    first: g.first,
+                    last: g.last,
+                })
                 .collect(),
             nodal,
             interval_bounds: {

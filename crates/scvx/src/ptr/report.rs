@@ -385,15 +385,30 @@ impl Serialize for ConstraintRef {
 }
 
 impl PartialEq<str> for ConstraintRef {
-    /// Whether its report text is `other`.
+    /// Whether its report text is `other` (compared as it is written, without allocating).
     fn eq(&self, other: &str) -> bool {
-        self.to_string() == other
+        /// Consumes `rest` while what is written matches it.
+        struct Matches<'a> {
+            rest: &'a str,
+            ok: bool,
+        }
+        impl std::fmt::Write for Matches<'_> {
+            fn write_str(&mut self, s: &str) -> std::fmt::Result {
+                match self.rest.strip_prefix(s) {
+                    Some(rest) if self.ok => self.rest = rest,
+                    _ => self.ok = false,
+                }
+                Ok(())
+            }
+        }
+        let mut m = Matches { rest: other, ok: true };
+        std::fmt::write(&mut m, format_args!("{self}")).is_ok() && m.ok && m.rest.is_empty()
     }
 }
 
 impl PartialEq<&str> for ConstraintRef {
     fn eq(&self, other: &&str) -> bool {
-        self.to_string() == *other
+        *self == **other
     }
 }
 

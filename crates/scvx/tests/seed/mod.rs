@@ -272,7 +272,12 @@ pub fn build_with(variant: Variant) -> Seed {
         time_weight: 1.0,
         final_cost: vec![],
         increments: (0..n_groups)
-            .map(|i| (14 + i, eps[i], groups[i].first, groups[i].last))
+            .map(|i| armature_scvx::Increment {
+                state: 14 + i,
+                eps: eps[i],
+                first: groups[i].first,
+                last: groups[i].last,
+            })
             .collect(),
         nodal,
         // The velocities: the bounds the time-optimal motion rides (the joint limits are far

@@ -29,7 +29,7 @@ pub(in crate::ptr) fn push(v: &VarLayout, ocp: &Ocp, rb: &mut RowBuilder) {
             rb.end_row(sign * bound);
         }
     }
-    for &(r, eps, first, last) in &ocp.increments {
+    for &crate::Increment { state: r, eps, first, last } in &ocp.increments {
         for k in first..last.min(v.nn - 1) {
             rb.entry(v.x(k + 1, r), Source::Const(1.0));
             rb.entry(v.x(k, r), Source::Const(-1.0));
