@@ -89,7 +89,18 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     let robot = &task.robot;
     let spec = resolve_robot(robot.name.get_ref(), path);
     let chain = armature_kinematics::load_robot(&spec, robot.base.as_deref(), robot.tip.as_deref())
-        .map_err(|e| src.error(&robot.name, e.to_string()))?;
+        .map_err(|e| {
+            let hint = match e {
+                armature_kinematics::KinematicsError::NoRootLink => {
+                    ": give `base = \"LINK\"` in [robot]"
+                }
+                armature_kinematics::KinematicsError::AmbiguousTip { .. } => {
+                    ": give `tip = \"LINK\"` in [robot]"
+                }
+                _ => "",
+            };
+            src.error(&robot.name, format!("{e}{hint}"))
+        })?;
     let limits = joint_limits(task, &chain, src)?;
     let (t_min, t_max) = time_window(task, src)?;
     let (nodes, per_segment) = node_count(task, src)?;

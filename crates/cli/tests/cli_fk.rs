@@ -96,3 +96,28 @@ fn fk_rejects_bad_input_with_exit_code_2() {
     let (code, out, _) = armature(&["fk", "--q", "-0.5,0,0,0,0,0,0"]);
     assert_eq!(code, 0, "negative first value: {out}");
 }
+
+/// Two leaf links: the error lists them and says how to name the tip where the robot was
+/// given — a flag on the command line, a key in a task file.
+#[test]
+fn a_urdf_with_two_leaves_asks_for_the_tip_in_the_inputs_own_words() {
+    let urdf = r#"<robot name="fork">
+  <link name="base"/><link name="a"/><link name="b"/>
+  <joint name="ja" type="continuous"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/></joint>
+  <joint name="jb" type="continuous"><parent link="base"/><child link="b"/><axis xyz="0 0 1"/></joint>
+</robot>"#;
+    let path = temp_file("fork", "fork.urdf", urdf);
+    let (code, _, err) = armature(&["fk", "--robot", path.to_str().unwrap(), "--q", "0"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("2 leaf links (a, b)") && err.contains("give --tip LINK"), "{err}");
+    let task = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/pick-and-place.toml"
+    ))
+    .unwrap()
+    .replacen("name = \"arm7\"", &format!("name = {:?}", path.to_str().unwrap()), 1);
+    let task = temp_file("fork-task", "task.toml", &task);
+    let (code, _, err) = armature(&["solve", task.to_str().unwrap(), "-q"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("give `tip = \"LINK\"` in [robot]") && !err.contains("--tip"), "{err}");
+}

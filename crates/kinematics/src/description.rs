@@ -122,18 +122,15 @@ pub fn load_robot(
                 (Some(b), _) => b,
                 (None, Some(r)) => r,
                 (None, None) => {
-                    return Err(KinematicsError::Urdf("no root link; give --base".into()));
+                    return Err(KinematicsError::NoRootLink);
                 }
             };
             let tip = match (tip, leaves.as_slice()) {
                 (Some(t), _) => t,
                 (None, [one]) => one,
                 (None, many) => {
-                    return Err(KinematicsError::Urdf(format!(
-                        "the URDF has {} leaf links ({}); give --tip",
-                        many.len(),
-                        many.join(", ")
-                    )));
+                    let leaves = many.iter().map(|l| l.to_string()).collect();
+                    return Err(KinematicsError::AmbiguousTip { leaves });
                 }
             };
             crate::urdf::chain_from_urdf_str(&xml, base, tip, None)

@@ -32,6 +32,15 @@ pub enum KinematicsError {
         /// The name.
         name: String,
     },
+    /// A URDF without a root link (every link is some joint's child): the base must be named.
+    #[error("URDF: no root link; name the base link")]
+    NoRootLink,
+    /// A URDF with several leaf links: the tip must be named.
+    #[error("URDF: {} leaf links ({}); name the tip link", leaves.len(), leaves.join(", "))]
+    AmbiguousTip {
+        /// The leaf links.
+        leaves: Vec<String>,
+    },
     /// A URDF problem: missing link, a link off the base→tip path, an unsupported joint,
     /// malformed XML.
     #[error("URDF: {0}")]

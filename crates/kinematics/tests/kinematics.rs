@@ -484,3 +484,22 @@ fn chain_validation_names_the_offender() {
     assert_eq!(load_robot("ur5e", None, None).unwrap().dof(), 6);
     let _ = PI;
 }
+
+/// A URDF with two leaf links needs its tip named: the error lists the leaves as data (and
+/// names no command-line flag; the front ends say how to name it).
+#[test]
+fn a_urdf_with_several_leaves_asks_for_its_tip() {
+    let path = std::env::temp_dir().join(format!("armature-leaves-{}.urdf", std::process::id()));
+    std::fs::write(&path, URDF).unwrap();
+    let e = load_robot(path.to_str().unwrap(), None, None).unwrap_err();
+    match &e {
+        KinematicsError::AmbiguousTip { leaves } => {
+            assert_eq!(leaves.len(), 2, "{leaves:?}");
+            assert!(leaves.iter().any(|l| l == "camera") && leaves.iter().any(|l| l == "tool"));
+        }
+        other => panic!("{other}"),
+    }
+    assert!(e.to_string().contains("name the tip link") && !e.to_string().contains("--"), "{e}");
+    assert_eq!(load_robot(path.to_str().unwrap(), None, Some("tool")).unwrap().dof(), 4);
+    std::fs::remove_file(&path).unwrap();
+}

@@ -21,15 +21,15 @@ fn bench(c: &mut Criterion) {
     // analysis (orderings and symbolic factorization), which a solve does once per `Ptr`
     // (at its first subproblem; `solve` below reuses it).
     g.bench_function("construct", |b| {
-        b.iter(|| black_box(Ptr::new(s.ocp.clone(), PtrSettings::default())))
+        b.iter(|| black_box(Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap()))
     });
     g.bench_function("construct_and_analyse_kkt", |b| {
         b.iter(|| {
-            let ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+            let ptr = Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap();
             black_box(ptr.dimensions().reduced_kkt_nonzeros)
         })
     });
-    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap();
     g.bench_function("solve", |b| {
         b.iter(|| black_box(ptr.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
@@ -39,7 +39,7 @@ fn bench(c: &mut Criterion) {
         s.merit = Merit::Lagrangian { sigma: 0.5 };
         s
     };
-    let mut ptr_qn = Ptr::new(s.ocp.clone(), qn);
+    let mut ptr_qn = Ptr::new(s.ocp.clone(), qn).unwrap();
     g.bench_function("solve_quasi_newton", |b| {
         b.iter(|| black_box(ptr_qn.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
@@ -48,12 +48,12 @@ fn bench(c: &mut Criterion) {
         s.subproblem.solver = SubproblemSolver::Clarabel;
         s
     };
-    let mut ptr_n = Ptr::new(s.ocp.clone(), clarabel.clone());
+    let mut ptr_n = Ptr::new(s.ocp.clone(), clarabel.clone()).unwrap();
     g.bench_function("solve_clarabel", |b| {
         b.iter(|| black_box(ptr_n.solve(&s.x, &s.u, &s.s).unwrap().final_time))
     });
     let sc = seed::build_collision();
-    let mut ptr_c = Ptr::new(sc.ocp.clone(), PtrSettings::default());
+    let mut ptr_c = Ptr::new(sc.ocp.clone(), PtrSettings::default()).unwrap();
     g.bench_function("solve_collision", |b| {
         b.iter(|| black_box(ptr_c.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
@@ -62,11 +62,11 @@ fn bench(c: &mut Criterion) {
         without_clearance_peaks: true,
         ..seed::Variant::default()
     });
-    let mut ptr_np = Ptr::new(sn.ocp.clone(), PtrSettings::default());
+    let mut ptr_np = Ptr::new(sn.ocp.clone(), PtrSettings::default()).unwrap();
     g.bench_function("solve_collision_without_peaks", |b| {
         b.iter(|| black_box(ptr_np.solve(&sn.x, &sn.u, &sn.s).unwrap().final_time))
     });
-    let mut ptr_cn = Ptr::new(sc.ocp.clone(), clarabel);
+    let mut ptr_cn = Ptr::new(sc.ocp.clone(), clarabel).unwrap();
     g.bench_function("solve_collision_clarabel", |b| {
         b.iter(|| black_box(ptr_cn.solve(&sc.x, &sc.u, &sc.s).unwrap().final_time))
     });
@@ -78,7 +78,7 @@ fn bench(c: &mut Criterion) {
             interval_bounds: true,
             ..seed::Variant::default()
         });
-        let mut ptr_i = Ptr::new(si.ocp.clone(), PtrSettings::default());
+        let mut ptr_i = Ptr::new(si.ocp.clone(), PtrSettings::default()).unwrap();
         g.bench_function(name, |b| {
             b.iter(|| black_box(ptr_i.solve(&si.x, &si.u, &si.s).unwrap().final_time))
         });

@@ -64,6 +64,7 @@ fn main() {
             _ => {}
         }
         let r = Ptr::new(ocp, settings)
+            .unwrap()
             .solve(&x, &vec![0.0; nodes], &vec![guess_time; nodes])
             .expect("sizes match");
         let best = 2.0 * d.sqrt();

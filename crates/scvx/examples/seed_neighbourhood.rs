@@ -58,7 +58,7 @@ fn main() {
                     settings.merit = Merit::Lagrangian { sigma: 0.5 };
                 }
                 settings.quasi_newton = has("qn");
-                let mut ptr = Ptr::new(s.ocp.clone(), settings);
+                let mut ptr = Ptr::new(s.ocp.clone(), settings).unwrap();
                 let t0 = std::time::Instant::now();
                 let r = ptr.solve(&s.x, &s.u, &s.s).expect("sizes match");
                 let elapsed = t0.elapsed().as_secs_f64() * 1e3;

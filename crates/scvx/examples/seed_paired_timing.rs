@@ -43,7 +43,7 @@ fn main() {
         .collect();
     let seeds: Vec<seed::Seed> = variants.iter().map(|(_, v)| seed::build_with(*v)).collect();
     let mut solvers: Vec<Ptr> =
-        seeds.iter().map(|s| Ptr::new(s.ocp.clone(), PtrSettings::default())).collect();
+        seeds.iter().map(|s| Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap()).collect();
     let mut times = vec![Vec::with_capacity(rounds); seeds.len()];
     let mut outcome = vec![(0, 0.0); seeds.len()];
     let mut parts = vec![(Vec::new(), Vec::new()); seeds.len()];

@@ -38,7 +38,7 @@ fn main() {
     if std::env::args().any(|a| a == "clarabel") {
         settings.subproblem.solver = armature_scvx::SubproblemSolver::Clarabel;
     }
-    let mut ptr = Ptr::new(s.ocp.clone(), settings);
+    let mut ptr = Ptr::new(s.ocp.clone(), settings).unwrap();
     let built = t0.elapsed();
     println!("subproblem: {:?}", ptr.dimensions());
     let mut out = std::io::stdout().lock();

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::Dynamics;
+use crate::{Dynamics, PtrError};
 
 /// The optimal control problem in dynamics form.
 #[derive(Debug, Clone)]
@@ -157,4 +157,112 @@ pub enum NodalKind {
         /// The radius.
         radius: f64,
     },
+}
+
+impl Ocp {
+    /// Checks that the parts fit together: sizes of the bounds and boundary values, bounds in
+    /// order, nodes within the grid, functions compiled against `[states], [controls]`, the
+    /// rows each part names. [`Ptr::new`](crate::Ptr::new) calls it, so a problem is checked
+    /// once, before its subproblem pattern is built.
+    ///
+    /// # Errors
+    /// [`PtrError::Ocp`], [`PtrError::IntervalBoundRow`], [`PtrError::NodalConstraint`] or
+    /// [`PtrError::IntervalConstraint`] naming the first part that does not fit.
+    pub fn validate(&self) -> Result<(), PtrError> {
+        let (n, m, nn) = (self.dynamics.n_x(), self.dynamics.n_u(), self.nodes);
+        let bad =
+            |field: &str, reason: String| Err(PtrError::Ocp { field: field.to_string(), reason });
+        if !(2..=crate::MAX_NODES).contains(&nn) {
+            return bad("nodes", format!("{nn} must be 2 to {}", crate::MAX_NODES));
+        }
+        let sizes: [(&str, usize, usize); 6] = [
+            ("x_min", self.x_min.len(), n),
+            ("x_max", self.x_max.len(), n),
+            ("u_min", self.u_min.len(), m),
+            ("u_max", self.u_max.len(), m),
+            ("x_initial", self.x_initial.len(), n),
+            ("x_final", self.x_final.len(), n),
+        ];
+        for (field, got, expected) in sizes {
+            if got != expected {
+                return bad(field, format!("has {got} entries for {expected} rows"));
+            }
+        }
+        let pairs = self.x_min.iter().zip(&self.x_max).chain(self.u_min.iter().zip(&self.u_max));
+        if let Some(i) = pairs.clone().position(|(lo, hi)| lo.is_nan() || hi.is_nan() || lo > hi) {
+            let (field, row) = if i < n { ("x_min", i) } else { ("u_min", i - n) };
+            return bad(field, format!("row {row} lies above its maximum (or is NaN)"));
+        }
+        if !(self.s_min > 0.0 && self.s_min <= self.s_max && self.s_max.is_finite()) {
+            return bad("s_min", "and s_max must satisfy 0 < s_min ≤ s_max < ∞".into());
+        }
+        let (t0, t1) = self.final_time;
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
+            return bad("final_time", format!("({t0}, {t1}) is not an interval"));
+        }
+        if !self.time_weight.is_finite() {
+            return bad("time_weight", "must be finite".into());
+        }
+        if let Some(&(i, w)) = self.final_cost.iter().find(|(i, w)| *i >= n || !w.is_finite()) {
+            return bad("final_cost", format!("({i}, {w}) names no state row or is not finite"));
+        }
+        for (i, inc) in self.increments.iter().enumerate() {
+            if inc.state >= n
+                || !(inc.first < inc.last && inc.last < nn)
+                || inc.eps.is_nan()
+                || inc.eps < 0.0
+            {
+                let reason = "needs a state row, first < last ≤ N − 1 and ε ≥ 0".into();
+                return bad(&format!("increments[{i}]"), reason);
+            }
+        }
+        if let Some(&row) = self.interval_bounds.iter().find(|&&r| r >= n) {
+            return Err(PtrError::IntervalBoundRow { row, states: n });
+        }
+        self.validate_constraints()
+    }
+
+    /// The nodal and interval constraints.
+    fn validate_constraints(&self) -> Result<(), PtrError> {
+        let (n, m, nn) = (self.dynamics.n_x(), self.dynamics.n_u(), self.nodes);
+        for c in &self.nodal {
+            let bad = |reason| Err(PtrError::NodalConstraint { name: c.name.clone(), reason });
+            if c.function.n_inputs() != n + m {
+                return bad("it must be compiled against the groups [states], [controls]");
+            }
+            if c.nodes.iter().any(|&k| k >= nn) {
+                return bad("a node lies beyond the last node");
+            }
+            let names = c.output_names.len();
+            if names > 0 && matches!(c.kind, NodalKind::Ball { .. }) {
+                return bad("a ball constraint is one constraint: its entries take no names");
+            }
+            if names > 0 && names != c.function.n_outputs() {
+                return bad("output_names must name every entry of g, or none");
+            }
+            if let NodalKind::Ball { radius } = c.kind
+                && !(radius.is_finite() && radius >= 0.0)
+            {
+                return bad("its radius must be finite and ≥ 0");
+            }
+        }
+        for c in &self.interval_constraints {
+            let bad = |reason| Err(PtrError::IntervalConstraint { name: c.name.clone(), reason });
+            if !(c.first < c.last && c.last < nn) {
+                return bad("its segments first..last must satisfy first < last ≤ N − 1");
+            }
+            if c.function.n_inputs() != n + m {
+                return bad("it must be compiled against the groups [states], [controls]");
+            }
+            if c.reads_controls(n) {
+                return bad(
+                    "it reads the controls; an interval constraint may read the states only",
+                );
+            }
+            if c.activation.is_some_and(|a| a.is_nan() || a <= 0.0) {
+                return bad("its activation distance must be positive (or None)");
+            }
+        }
+        Ok(())
+    }
 }

@@ -168,7 +168,7 @@ fn far_segments_switch_their_peak_rows_off() {
 
 #[test]
 fn the_solver_checks_interval_constraints_too() {
-    // The same checks at the `Ocp` level, as errors of `start`.
+    // The same checks at the `Ocp` level, as errors of `Ptr::new`.
     let mut compiled = problem(false).compile(PtrSettings::default()).unwrap();
     let mut ocp = compiled.ptr().ocp().clone();
     let (n, m) = (ocp.dynamics.n_x(), ocp.dynamics.n_u());
@@ -183,16 +183,15 @@ fn the_solver_checks_interval_constraints_too() {
         last: NODES - 1,
         activation: None,
     }];
-    let (x, u, s) = compiled.guess();
-    let e = Ptr::new(ocp.clone(), PtrSettings::default()).solve(x, u, s).unwrap_err();
+    let e = Ptr::new(ocp.clone(), PtrSettings::default()).unwrap_err();
     assert!(matches!(&e, PtrError::IntervalConstraint { name, .. } if name == "bad"), "{e}");
     let states_only = Function::compile(&[states[0].clone()], &args).unwrap();
     ocp.interval_constraints[0].function = states_only;
     ocp.interval_constraints[0].last = NODES;
-    let e = Ptr::new(ocp.clone(), PtrSettings::default()).solve(x, u, s).unwrap_err();
+    let e = Ptr::new(ocp.clone(), PtrSettings::default()).unwrap_err();
     assert!(e.to_string().contains("first < last"), "{e}");
     ocp.interval_constraints[0].last = NODES - 1;
     ocp.interval_constraints[0].activation = Some(f64::NAN);
-    let e = Ptr::new(ocp, PtrSettings::default()).solve(x, u, s).unwrap_err();
+    let e = Ptr::new(ocp, PtrSettings::default()).unwrap_err();
     assert!(e.to_string().contains("activation"), "{e}");
 }

@@ -73,7 +73,7 @@ fn check(settings: PtrSettings) {
         interval_bounds: vec![],
         interval_constraints: Vec::new(),
     };
-    let mut ptr = Ptr::new(ocp, settings);
+    let mut ptr = Ptr::new(ocp, settings).unwrap();
     // Guess: straight line at 45°, speed growing, 1 s.
     let x: Vec<f64> = (0..nodes)
         .flat_map(|k| {

@@ -11,15 +11,13 @@ use armature_symbolic::{Expr, Function};
 /// The published PTR (constant trust region, heavy virtual-control price): these small
 /// problems converge with it; the defaults are tuned on the seed arm problem.
 fn published_ptr(max_iterations: usize) -> PtrSettings {
-    {
-        let mut s = PtrSettings::default();
-        s.max_iterations = max_iterations;
-        s.trust_region = TrustRegionUpdate::Constant;
-        s.lam_vc = 1e2;
-        s.lam_vb = 1e2;
-        s.eps_tr = 1e-4;
-        s
-    }
+    let mut s = PtrSettings::default();
+    s.max_iterations = max_iterations;
+    s.trust_region = TrustRegionUpdate::Constant;
+    s.lam_vc = 1e2;
+    s.lam_vb = 1e2;
+    s.eps_tr = 1e-4;
+    s
 }
 
 /// Minimum time 0 → 1 m at rest with |a| ≤ 1 and the path constraint |v| ≤ 0.7 enforced in
@@ -66,7 +64,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         interval_bounds: vec![],
         interval_constraints: Vec::new(),
     };
-    let mut ptr = Ptr::new(ocp.clone(), published_ptr(150));
+    let mut ptr = Ptr::new(ocp.clone(), published_ptr(150)).unwrap();
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.3, 0.0]).collect();
     let r = ptr.solve(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
     let expected = 1.4 + 0.51 / 0.7;
@@ -136,7 +134,7 @@ fn nodal_constraint_holds_at_convergence() {
             output_names: Vec::new(),
         }]
     });
-    let mut ptr = Ptr::new(ocp, published_ptr(100));
+    let mut ptr = Ptr::new(ocp, published_ptr(100)).unwrap();
     let (x, u, s) = double_integrator::poor_guess(nodes);
     let r = ptr.solve(&x, &u, &s).unwrap();
     eprintln!("status {:?}, iterations {}, T = {}", r.status, r.history.len(), r.final_time);
@@ -170,7 +168,7 @@ fn named_entries_of_a_nodal_constraint_are_reported_apart() {
     };
     // At the straight-line guess (at rest) the middle nodes violate the position entries,
     // and the speed entry is violated by its constant −0.02 (checked at 0.02 − v).
-    let mut ptr = Ptr::new(build(names, NodalKind::Inequality), published_ptr(1));
+    let mut ptr = Ptr::new(build(names, NodalKind::Inequality), published_ptr(1)).unwrap();
     let (x, u, s) = double_integrator::poor_guess(nodes);
     ptr.start(&x, &u, &s).unwrap();
     let r = ptr.result().unwrap();
@@ -204,7 +202,7 @@ fn named_entries_of_a_nodal_constraint_are_reported_apart() {
     let short = build(vec!["position".into()], NodalKind::Inequality);
     let ball = build(["a", "b", "c"].map(String::from).to_vec(), NodalKind::Ball { radius: 0.1 });
     for ocp in [short, ball] {
-        let err = Ptr::new(ocp, published_ptr(1)).solve(&x, &u, &s).unwrap_err();
+        let err = Ptr::new(ocp, published_ptr(1)).unwrap_err();
         assert!(matches!(err, armature_scvx::PtrError::NodalConstraint { .. }), "{err}");
     }
 }

@@ -278,11 +278,9 @@ fn defects_alone_equal_the_full_discretization_bitwise() {
 }
 
 fn dp(rtol: f64, atol: f64) -> DiscretizationSettings {
-    {
-        let mut s = DiscretizationSettings::default();
-        s.integrator = armature_scvx::Integrator::DormandPrince { rtol, atol };
-        s
-    }
+    let mut s = DiscretizationSettings::default();
+    s.integrator = armature_scvx::Integrator::DormandPrince { rtol, atol };
+    s
 }
 
 #[test]

@@ -24,7 +24,7 @@ fn solve(ocp: Ocp) -> (PtrResult, f64) {
     let nodes = ocp.nodes;
     let dynamics = ocp.dynamics.clone();
     let (x, u, s) = poor_guess(nodes);
-    let r = Ptr::new(ocp, PtrSettings::default()).solve(&x, &u, &s).unwrap();
+    let r = Ptr::new(ocp, PtrSettings::default()).unwrap().solve(&x, &u, &s).unwrap();
     // The largest velocity on a fine single-shooting propagation.
     let (_, dense) = dynamics.propagate(&r.x[..2], &r.u, &r.s, 1e-3).unwrap();
     let vmax = dense.chunks(2).map(|x| x[1].abs()).fold(0.0, f64::max);
@@ -62,7 +62,6 @@ fn peak_rows_keep_a_velocity_limit_between_the_nodes() {
 fn an_interval_bound_on_a_missing_row_is_an_error() {
     let mut ocp = limited(4, true);
     ocp.interval_bounds = vec![1, 5];
-    let (x, u, s) = poor_guess(4);
-    let e = Ptr::new(ocp, PtrSettings::default()).solve(&x, &u, &s).unwrap_err();
+    let e = Ptr::new(ocp, PtrSettings::default()).unwrap_err();
     assert!(matches!(e, PtrError::IntervalBoundRow { row: 5, states: 2 }), "{e}");
 }

@@ -162,12 +162,10 @@ fn certificate(pr: &Problem, ipm: &InteriorPoint) -> (f64, f64, f64, bool) {
 /// tolerances below 1e-8 want).
 /// The settings of these tests: a tolerance, two refinement steps.
 fn settings(tolerance: f64) -> IpmSettings {
-    {
-        let mut s = IpmSettings::default();
-        s.tolerance = tolerance;
-        s.refinement_steps = 2;
-        s
-    }
+    let mut s = IpmSettings::default();
+    s.tolerance = tolerance;
+    s.refinement_steps = 2;
+    s
 }
 
 fn solve_both(

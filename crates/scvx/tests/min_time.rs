@@ -9,7 +9,7 @@ use double_integrator::{poor_guess, problem};
 /// Solves the 41-node problem from the poor guess and prints the outcome under `label`.
 fn solve_from_a_poor_guess(settings: PtrSettings, label: &str) -> armature_scvx::PtrResult {
     let nodes = 41;
-    let mut ptr = Ptr::new(problem(nodes, |_, _, _| vec![]), settings);
+    let mut ptr = Ptr::new(problem(nodes, |_, _, _| vec![]), settings).unwrap();
     let (x, u, s) = poor_guess(nodes);
     let r = ptr.solve(&x, &u, &s).unwrap();
     eprintln!("{label}: {:?} after {} iterations, T = {}", r.status, r.history.len(), r.final_time);

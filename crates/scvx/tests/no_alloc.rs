@@ -44,7 +44,7 @@ fn ptr_steps_are_allocation_free() {
             s.discretization.parallel = false;
             s
         };
-        let mut ptr = Ptr::new(s.ocp.clone(), settings);
+        let mut ptr = Ptr::new(s.ocp.clone(), settings).unwrap();
         ptr.solve(&s.x, &s.u, &s.s).unwrap();
         ptr.start(&s.x, &s.u, &s.s).unwrap();
         ptr.step().unwrap();

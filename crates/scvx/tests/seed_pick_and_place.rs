@@ -10,18 +10,16 @@ use armature_scvx::{Merit, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus, Sub
 #[test]
 fn seed_pick_and_place_converges_and_meets_the_task() {
     let s = seed::build();
-    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap();
     let r = ptr.solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
 }
 
 /// The defaults with Clarabel for every subproblem.
 fn only_clarabel() -> PtrSettings {
-    {
-        let mut s = PtrSettings::default();
-        s.subproblem.solver = SubproblemSolver::Clarabel;
-        s
-    }
+    let mut s = PtrSettings::default();
+    s.subproblem.solver = SubproblemSolver::Clarabel;
+    s
 }
 
 /// The native warm-started interior point (the default; Clarabel only as a fallback) and
@@ -31,9 +29,11 @@ fn only_clarabel() -> PtrSettings {
 #[test]
 fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
     let s = seed::build();
-    let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    let r =
+        Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
-    let clarabel = Ptr::new(s.ocp.clone(), only_clarabel()).solve(&s.x, &s.u, &s.s).unwrap();
+    let clarabel =
+        Ptr::new(s.ocp.clone(), only_clarabel()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.history.len(), clarabel.history.len());
     assert!(
         (r.final_time - clarabel.final_time).abs() < 1e-3,
@@ -57,8 +57,8 @@ fn clarabel_takes_over_when_the_native_solver_stops_short() {
         s.subproblem.interior_point.max_iterations = 1;
         s
     };
-    let r = Ptr::new(s.ocp.clone(), capped).solve(&s.x, &s.u, &s.s).unwrap();
-    let c = Ptr::new(s.ocp.clone(), only_clarabel()).solve(&s.x, &s.u, &s.s).unwrap();
+    let r = Ptr::new(s.ocp.clone(), capped).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
+    let c = Ptr::new(s.ocp.clone(), only_clarabel()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.status, PtrStatus::Converged);
     assert_eq!(r.x, c.x);
     assert_eq!(r.final_time, c.final_time);
@@ -86,10 +86,10 @@ fn quasi_newton_reaches_a_lower_final_time() {
         s.merit = Merit::Lagrangian { sigma: 0.5 };
         s
     };
-    let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
+    let r = Ptr::new(s.ocp.clone(), settings).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
     let first_order =
-        Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+        Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert!(
         r.final_time < first_order.final_time - 0.1,
         "quasi-Newton T = {} vs first-order T = {}",
@@ -128,7 +128,7 @@ fn assert_meets_the_task(s: &seed::Seed, r: &PtrResult) {
 #[test]
 fn re_solve_after_moving_a_waypoint_needs_no_recompilation() {
     let mut s = seed::build();
-    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default());
+    let mut ptr = Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap();
     let first = ptr.solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(first.status, PtrStatus::Converged);
     let moved = [0.30, 0.28, 0.05];
@@ -166,7 +166,8 @@ fn re_solve_after_moving_a_waypoint_needs_no_recompilation() {
 #[test]
 fn seed_collision_variant_converges_without_penetration() {
     let s = seed::build_collision();
-    let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+    let r =
+        Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     let c = seed::check(&s, &r);
     eprintln!(
         "collision: {:?} after {} iterations, T = {:.4} s; {c:?}",
@@ -189,6 +190,7 @@ fn seed_collision_variant_converges_without_penetration() {
     // The plain problem's solution does hit the ball: the variant is not vacuous.
     let plain = seed::build();
     let rp = Ptr::new(plain.ocp.clone(), PtrSettings::default())
+        .unwrap()
         .solve(&plain.x, &plain.u, &plain.s)
         .unwrap();
     assert!(seed::check(&plain, &rp).min_clearance.0 < 0.0);
@@ -204,7 +206,7 @@ fn switching_far_peak_rows_off_keeps_the_collision_iterates() {
     let mut all_in = s.ocp.clone();
     all_in.interval_constraints[0].activation = None;
     let solve = |ocp: &armature_scvx::Ocp| {
-        let mut ptr = Ptr::new(ocp.clone(), PtrSettings::default());
+        let mut ptr = Ptr::new(ocp.clone(), PtrSettings::default()).unwrap();
         let r = ptr.solve(&s.x, &s.u, &s.s).unwrap();
         (r, ptr.dimensions().reduced_kkt_nonzeros.expect("interior point"))
     };
@@ -237,7 +239,7 @@ fn no_collision_subproblem_runs_the_interior_point_to_its_cap() {
         s
     };
     let cap = settings.subproblem.interior_point.max_iterations;
-    let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
+    let r = Ptr::new(s.ocp.clone(), settings).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.status, PtrStatus::Converged);
     assert_eq!(seed::check(&s, &r).missed(true), None);
     let worst = r.history.iter().map(|h| h.subproblem_iterations).max().unwrap();
@@ -256,7 +258,10 @@ fn interval_bounds_meet_the_task_at_a_lower_final_time() {
             interval_bounds: true,
             ..seed::Variant::default()
         });
-        let r = Ptr::new(s.ocp.clone(), PtrSettings::default()).solve(&s.x, &s.u, &s.s).unwrap();
+        let r = Ptr::new(s.ocp.clone(), PtrSettings::default())
+            .unwrap()
+            .solve(&s.x, &s.u, &s.s)
+            .unwrap();
         assert_meets_the_task(&s, &r);
         assert!(r.final_time < 1.35, "collision {collision}: T = {}", r.final_time);
         let c = seed::check(&s, &r);
@@ -294,7 +299,7 @@ fn heavy_trust_region_subproblems_are_solved_natively() {
         s
     };
     let cap = settings.subproblem.interior_point.max_iterations;
-    let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
+    let r = Ptr::new(s.ocp.clone(), settings).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     let heavy: Vec<(usize, u32, f64)> = r
         .history
         .iter()
@@ -330,7 +335,7 @@ fn the_lagrangian_merit_does_not_reward_defects() {
         s.merit = Merit::Lagrangian { sigma: 0.5 };
         s
     };
-    let r = Ptr::new(s.ocp.clone(), settings).solve(&s.x, &s.u, &s.s).unwrap();
+    let r = Ptr::new(s.ocp.clone(), settings).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
     let c = seed::check(&s, &r);
     assert!(c.min_clearance.0 > 0.0, "{} penetrates by {}", c.min_clearance.1, -c.min_clearance.0);

@@ -11,13 +11,11 @@ use armature_scvx::{
 /// The published PTR (constant trust region, heavy virtual-control price), as in
 /// `min_time.rs`: the defaults are tuned on the seed arm.
 fn settings() -> PtrSettings {
-    {
-        let mut s = PtrSettings::default();
-        s.trust_region = TrustRegionUpdate::Constant;
-        s.lam_vc = 1e2;
-        s.eps_tr = 1e-4;
-        s
-    }
+    let mut s = PtrSettings::default();
+    s.trust_region = TrustRegionUpdate::Constant;
+    s.lam_vc = 1e2;
+    s.eps_tr = 1e-4;
+    s
 }
 use armature_symbolic::{Expr, Function};
 use double_integrator::poor_guess;
@@ -42,7 +40,7 @@ fn problem(nodes: usize) -> Ocp {
 fn stepping_by_hand_equals_solve_and_the_observer_sees_every_iteration() {
     let nodes = 21;
     let (x, u, s) = poor_guess(nodes);
-    let mut ptr = Ptr::new(problem(nodes), settings());
+    let mut ptr = Ptr::new(problem(nodes), settings()).unwrap();
     let mut seen = Vec::new();
     let mut table = Vec::new();
     IterationTable::header(&mut table).unwrap();
@@ -89,6 +87,7 @@ fn an_unfinished_solve_reports_what_it_still_violates() {
         s.max_iterations = 1;
         s
     })
+    .unwrap()
     .solve(&x, &u, &s)
     .unwrap();
     assert_eq!(r.status, PtrStatus::MaxIterations);
@@ -112,7 +111,7 @@ fn an_unfinished_solve_reports_what_it_still_violates() {
 fn bad_input_is_an_error_not_a_panic() {
     let nodes = 11;
     let (x, u, s) = poor_guess(nodes);
-    let mut ptr = Ptr::new(problem(nodes), PtrSettings::default());
+    let mut ptr = Ptr::new(problem(nodes), PtrSettings::default()).unwrap();
     assert_eq!(ptr.step(), Err(PtrError::NotRunning));
     assert!(ptr.result().is_none());
     assert_eq!(
@@ -165,11 +164,41 @@ fn bad_input_is_an_error_not_a_panic() {
         ),
     ] {
         assert!(settings.validate().is_err());
-        let err = Ptr::new(problem(nodes), settings).solve(&x, &u, &s).unwrap_err();
+        let err = Ptr::new(problem(nodes), settings).unwrap_err();
         match err {
             PtrError::Settings(e) => assert_eq!(e.field, field),
             other => panic!("{other:?}"),
         }
     }
     assert!(PtrSettings::default().validate().is_ok());
+}
+
+/// A problem whose parts do not fit together is refused by `Ptr::new`, naming the part,
+/// before any pattern is built.
+#[test]
+fn a_problem_whose_parts_do_not_fit_is_refused_at_construction() {
+    let nodes = 11;
+    let field = |e: PtrError| match e {
+        PtrError::Ocp { field, .. } => field,
+        other => panic!("{other}"),
+    };
+    let mut ocp = problem(nodes);
+    ocp.x_min.pop();
+    assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "x_min");
+    let mut ocp = problem(nodes);
+    ocp.u_min[0] = 2.0;
+    assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "u_min");
+    let mut ocp = problem(nodes);
+    ocp.increments.push(armature_scvx::Increment { state: 9, eps: 1e-6, first: 0, last: 4 });
+    assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "increments[0]");
+    let mut ocp = problem(nodes);
+    ocp.final_cost.push((0, f64::NAN));
+    assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "final_cost");
+    let mut ocp = problem(nodes);
+    ocp.nodal[0].nodes = vec![nodes];
+    let e = Ptr::new(ocp, settings()).unwrap_err();
+    assert!(matches!(&e, PtrError::NodalConstraint { .. }) && e.to_string().contains("beyond"));
+    let mut ocp = problem(nodes);
+    ocp.nodes = 1;
+    assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "nodes");
 }

@@ -26,7 +26,16 @@ impl RobotArgs {
     /// A bad-input [`CliError`] saying what is wrong and where.
     pub fn load(&self) -> Result<Chain, CliError> {
         armature_kinematics::load_robot(&self.robot, self.base.as_deref(), self.tip.as_deref())
-            .map_err(CliError::bad_input)
+            .map_err(|e| {
+                let hint = match e {
+                    armature_kinematics::KinematicsError::NoRootLink => ": give --base LINK",
+                    armature_kinematics::KinematicsError::AmbiguousTip { .. } => {
+                        ": give --tip LINK"
+                    }
+                    _ => "",
+                };
+                CliError::bad_input(format!("{e}{hint}"))
+            })
     }
 }
 

@@ -99,7 +99,7 @@ impl Problem {
                 n,
                 m: self.controls.iter().map(Control::size).sum(),
             },
-            ptr: Ptr::new(ocp, settings.clone()),
+            ptr: Ptr::new(ocp, settings.clone())?,
             settings,
             guess,
         })

@@ -3,8 +3,14 @@
 use super::*;
 
 impl Ptr {
-    /// Builds the solver (the subproblem pattern is computed here, once).
-    pub fn new(ocp: Ocp, settings: PtrSettings) -> Ptr {
+    /// Checks the problem ([`Ocp::validate`]) and the settings, then builds the solver (the
+    /// subproblem pattern is computed here, once).
+    ///
+    /// # Errors
+    /// The first part of the problem or setting that cannot be used.
+    pub fn new(ocp: Ocp, settings: PtrSettings) -> Result<Ptr, PtrError> {
+        ocp.validate()?;
+        settings.validate()?;
         let (n, m, nn) = (ocp.dynamics.n_x(), ocp.dynamics.n_u(), ocp.nodes);
         let v = VarLayout::new(n, m, nn);
         let n_buffers: usize = ocp
@@ -90,7 +96,7 @@ impl Ptr {
         };
         let (p_colptr, p_rowval, p_diag) = p_pattern(vp0, n_vars, &mut elements);
         let dws = ocp.dynamics.workspace();
-        Ptr {
+        Ok(Ptr {
             ocp,
             settings,
             n_vars,
@@ -118,7 +124,7 @@ impl Ptr {
             elements,
             row_elem,
             state: None,
-        }
+        })
     }
 }
 

@@ -241,6 +241,14 @@ pub enum PtrError {
     /// A parameter value the function rejects (wrong length, not finite).
     #[error("parameter: {0}")]
     Parameter(armature_symbolic::SymbolicError),
+    /// An [`Ocp`](crate::Ocp) whose parts do not fit together.
+    #[error("problem: {field} {reason}")]
+    Ocp {
+        /// The field (`x_min`, `increments[2]`).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
     /// [`Ocp::interval_bounds`] names a state row the problem does not have.
     #[error("interval bound on state row {row}, but the problem has {states} state rows")]
     IntervalBoundRow {

@@ -51,36 +51,6 @@ impl Ptr {
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
         self.settings.validate()?;
         let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
-        if let Some(&row) = self.ocp.interval_bounds.iter().find(|&&r| r >= n) {
-            return Err(PtrError::IntervalBoundRow { row, states: n });
-        }
-        for c in &self.ocp.nodal {
-            let bad = |reason| Err(PtrError::NodalConstraint { name: c.name.clone(), reason });
-            let names = c.output_names.len();
-            if names > 0 && matches!(c.kind, NodalKind::Ball { .. }) {
-                return bad("a ball constraint is one constraint: its entries take no names");
-            }
-            if names > 0 && names != c.function.n_outputs() {
-                return bad("output_names must name every entry of g, or none");
-            }
-        }
-        for c in &self.ocp.interval_constraints {
-            let bad = |reason| Err(PtrError::IntervalConstraint { name: c.name.clone(), reason });
-            if !(c.first < c.last && c.last < nn) {
-                return bad("its segments first..last must satisfy first < last ≤ N − 1");
-            }
-            if c.function.n_inputs() != n + m {
-                return bad("it must be compiled against the groups [states], [controls]");
-            }
-            if c.reads_controls(n) {
-                return bad(
-                    "it reads the controls; an interval constraint may read the states only",
-                );
-            }
-            if c.activation.is_some_and(|a| a.is_nan() || a <= 0.0) {
-                return bad("its activation distance must be positive (or None)");
-            }
-        }
         for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
             if v.len() != len {
                 return Err(PtrError::GuessSize { what, expected: len, got: v.len() });

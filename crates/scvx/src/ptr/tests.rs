@@ -57,7 +57,8 @@ fn interval_values_kept_for_the_reference_are_its_own() {
     let nodes = 11;
     let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
     let ocp = double_integrator(nodes, 10.0, [Some(1.0), Some(0.0)], g, vec![]);
-    let mut ptr = Ptr::new(ocp, PtrSettings { max_iterations: 40, ..PtrSettings::default() });
+    let mut ptr =
+        Ptr::new(ocp, PtrSettings { max_iterations: 40, ..PtrSettings::default() }).unwrap();
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
     ptr.start(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
     let (mut kept, mut rejected) = (0, 0);
@@ -92,7 +93,7 @@ fn peak_row_coefficients_are_derivatives_of_the_peak() {
         Expr::concat(&[&(v * v) + &(p * 0.3) - 0.2, -(v * &(&(&p.sin() * &p.sin()) + 1.0))])
     };
     let ocp = double_integrator(4, 0.5, [None, None], g, vec![1]);
-    let ptr = Ptr::new(ocp, PtrSettings::default());
+    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
     let settings = DiscretizationSettings::default();
     // z = [x (4×2) | u (4) | s (4)]: alternating accelerations make the velocity peak
     // (up) or dip (down) inside every segment.

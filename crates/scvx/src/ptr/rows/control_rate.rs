@@ -78,7 +78,7 @@ mod tests {
         };
         let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
         let (u, s) = (vec![0.0; nodes], vec![2.0; nodes]);
-        let r = Ptr::new(double_integrator(nodes), settings).solve(&x, &u, &s).unwrap();
+        let r = Ptr::new(double_integrator(nodes), settings).unwrap().solve(&x, &u, &s).unwrap();
         LIMIT.with(|l| l.set(None));
         assert_eq!(r.status, PtrStatus::Converged, "limit {limit:?}");
         let step = r.u.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
