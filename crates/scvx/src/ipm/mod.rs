@@ -85,33 +85,25 @@ pub struct IpmSettings {
     pub tolerance: f64,
     /// Iteration cap. Default 50.
     pub max_iterations: u32,
-    /// Static regularization δ of the reduced KKT matrix. Default 1e-9: with 1e-8 the one
-    /// refinement step could not undo the perturbation on the seed arm's last, nearly
-    /// degenerate subproblems (many active bounds at a large λ_tr), and the iterates crept
-    /// to the iteration cap (6 of 67 subproblems fell back to Clarabel); 1e-9 solves them
-    /// in 7–21 iterations. Wrong-signed pivots are still regularized dynamically.
+    /// Static regularization δ of the reduced KKT matrix. Default 1e-9 (wrong-signed pivots
+    /// are still regularized dynamically).
     pub regularization: f64,
     /// Most refinement steps of each corrector direction against the full (unreduced) system;
     /// refinement stops once the direction's residual is below 1e-2 × `tolerance` (relative).
-    /// Default 1: without refinement, directions lose accuracy near the cone boundaries.
-    /// Tolerances below 1e-8 want 2 (with one step, a random problem out of a few thousand
-    /// stalled at 1e-9 as its dual residual grew); on the seed problem a second step costs
-    /// 20 % of the subproblem time for no change in the iterates PTR sees.
+    /// Default 1: without refinement, directions lose accuracy near the cone boundaries;
+    /// tolerances below 1e-8 want 2.
     pub refinement_steps: u32,
     /// Warm start: after a first solve, start from x = 0 (the subproblem's deviation form),
     /// the previous duals and s = b, each pushed this far inside its cone (for nonnegative
     /// rows, see [`warm_start_centring`](Self::warm_start_centring)); 0 starts cold every
-    /// time. Default 1e-2: on the 74 quasi-Newton subproblems of the seed solve, 36 % fewer
-    /// iterations than cold starts (1e-3 and 1e-1 do slightly worse).
+    /// time. Default 1e-2.
     pub warm_start_margin: f64,
     /// Warm start of a nonnegative row: its complementarity product `s·z` is raised to at
     /// least μ₀ by raising its dual (z ≥ μ₀/s), and the slack of a row the previous solve
     /// held active (dual above the slack, product above μ₀, b ≥ 0) is placed at
     /// `max(b, μ₀/z)` instead of the margin: every row starts near the same point of the
-    /// central path, and active rows close to their true slack. Default 3e-3: on the seed
-    /// arm's four first-order solves, 11–20 % fewer interior-point iterations than pushing
-    /// both s and z by the margin, with the same PTR iterates (μ₀ = 1e-3 and 1e-2 save less).
-    /// 0 (or less) pushes the duals by the margin like the slacks.
+    /// central path, and active rows close to their true slack. Default 3e-3; 0 (or less)
+    /// pushes the duals by the margin like the slacks.
     pub warm_start_centring: f64,
 }
 

@@ -46,18 +46,14 @@ pub struct PtrSettings {
     /// region — 0.3 suits a time weight of 1 on the seed problem). Default 0.3.
     pub lam_vc: f64,
     /// Convergence: `‖Δz‖²` (scaled) of an accepted step. Default 1e-5 (OpenSCvx's
-    /// `ep_tr` is 1e-4). Against 1e-6: over the seed arm's wide settings grid (100 runs)
-    /// 12 runs stop earlier and none later, 7 of them within 0.05 % of the same final time,
-    /// 4 at 0.4–2.4 % above it and one at 8 %, all meeting the task; the random double
-    /// integrators reach the iteration cap once instead of 15 times (see the crate's BENCHMARKS.md).
+    /// `ep_tr` is 1e-4; the measurements behind the default are in the crate's
+    /// BENCHMARKS.md).
     pub eps_tr: f64,
     /// Convergence: largest nonlinear defect. Default 1e-6.
     pub eps_defect: f64,
     /// How the trust-region weight evolves. Default `Adaptive { eta: [0, 0.1, 0.5] }`.
     pub trust_region: TrustRegionUpdate,
-    /// Iteration cap. Default 200 (OpenSCvx's `k_max`): over λ_tr ∈ {0.5, 1, 2} × substeps
-    /// ∈ {8, 10, 12} around the defaults, the seed arm's first-order solves converge in 23 to
-    /// 178 iterations (5 of those 18 runs take more than 100).
+    /// Iteration cap. Default 200 (OpenSCvx's `k_max`).
     pub max_iterations: usize,
     /// Integrator settings.
     pub discretization: DiscretizationSettings,
@@ -117,9 +113,7 @@ pub enum SubproblemSolver {
     /// retried cold with the objective divided by λ_tr (and its absolute gap tolerance
     /// alike, see [`crate::ipm::InteriorPoint::set_objective_scale`]), and the rest of the
     /// run then solves scaled; otherwise, or if that fails too, Clarabel solves the
-    /// subproblem. (The retry is a safeguard: the one seed case that needed it failed on the
-    /// interior point's former objective-gap test, and since the complementarity-gap test
-    /// no first-order run of the seed's neighbourhood grids reaches the cap.)
+    /// subproblem.
     #[default]
     InteriorPoint,
     /// Clarabel for every subproblem (cold starts: Clarabel has no warm start).
