@@ -12,6 +12,8 @@ use armature_scvx::{Iteration, PtrStatus};
 #[derive(Debug)]
 pub struct Streamer {
     publisher: TrajectoryPublisher,
+    /// Values one trajectory message holds.
+    max_values: usize,
     /// Table names of the frames block, in keypoint order (`T_<keypoint>`).
     frames: Vec<String>,
 }
@@ -40,17 +42,21 @@ impl Streamer {
     /// # Errors
     /// The bridge's (a bad run name, iceoryx2 failures).
     pub fn new(run: &str, keypoints: &[String]) -> Result<Self, BridgeError> {
+        let settings = BridgeSettings::default();
         Ok(Streamer {
-            publisher: TrajectoryPublisher::new(run, &BridgeSettings::default())?,
+            max_values: settings.max_values,
+            publisher: TrajectoryPublisher::new(run, &settings)?,
             frames: keypoints.iter().map(|k| format!("T_{k}")).collect(),
         })
     }
 
     /// Publishes named tables (`time`, `angle`, `velocity`, `torque`, `ee_position`,
-    /// `T_<keypoint>`) as one trajectory message, written in place.
+    /// `T_<keypoint>`) as one trajectory message, written in place. A trajectory with more
+    /// values than one message holds is sent decimated to fit: every `stride`-th row and the
+    /// last (the stride is returned with the sequence number; 1 when nothing was dropped).
     ///
     /// # Errors
-    /// The bridge's (e.g. a trajectory beyond the configured size).
+    /// The bridge's.
     pub fn publish(
         &mut self,
         t: &Tables,
@@ -58,7 +64,7 @@ impl Streamer {
         status: Status,
         final_time: f64,
         dense: bool,
-    ) -> Result<u64, BridgeError> {
+    ) -> Result<(u64, usize), BridgeError> {
         let empty: Vec<Vec<f64>> = Vec::new();
         let get = |name: &str| t.get(name).unwrap_or(&empty);
         // Columns of each block as (table, index within its rows).
@@ -82,9 +88,16 @@ impl Streamer {
                 widths[b] += w as u32;
             }
         }
-        let rows = get("time").len();
+        let all = get("time").len();
+        let width = (widths.iter().sum::<u32>() as usize).max(1);
+        let fit = (self.max_values / width).max(2);
+        // Rows kept: 0, stride, 2·stride, … and the last one.
+        let stride = if all <= fit { 1 } else { (all - 1).div_ceil(fit - 1) };
+        let rows = if all == 0 { 0 } else { (all - 1).div_ceil(stride) + 1 };
+        let row = |r: usize| (r * stride).min(all.saturating_sub(1));
         let meta = TrajectoryMeta { iteration, status, final_time, dense, widths };
-        self.publisher.publish_with(&meta, rows, |r, c| cols[c].0[r][cols[c].1])
+        let seq = self.publisher.publish_with(&meta, rows, |r, c| cols[c].0[row(r)][cols[c].1])?;
+        Ok((seq, stride))
     }
 
     /// Publishes one iteration's progress.

@@ -140,3 +140,48 @@ fn huge_timeouts_and_lingers_are_refused_before_anything_runs() {
         assert!(!stderr.contains("panicked") && stdout.is_empty(), "{stderr}");
     }
 }
+
+/// A final trajectory larger than one message (dense_dt = 1e-4: about 14,700 samples) no
+/// longer costs the result: the files are written first, and the stream carries the
+/// trajectory decimated to fit, with its first and last samples.
+#[test]
+fn a_trajectory_too_large_for_one_message_is_streamed_decimated_after_the_result() {
+    let run = format!("cli-big-{}", std::process::id());
+    let mut listener = bin()
+        .args(["listen", &run, "--json", "--timeout", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let _rest = wait_for(&mut listener, "listening on");
+    let task = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/pick-and-place.toml"
+    ))
+    .unwrap()
+    .replacen("[settings]\n", "[settings]\ndense_dt = 1e-4\n", 1);
+    let dir = scratch("stream-big");
+    let (task_path, result) = (dir.path().join("task.toml"), dir.path().join("result.json"));
+    std::fs::write(&task_path, task).unwrap();
+    let (code, _, stderr) = armature(&[
+        "solve",
+        task_path.to_str().unwrap(),
+        "--stream",
+        &run,
+        "-o",
+        result.to_str().unwrap(),
+    ]);
+    let out = listener.wait_with_output().unwrap();
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    assert_solved(code, &r, &stderr);
+    assert!(stderr.contains("streamed every"), "{stderr}");
+    let dense = r["trajectory"]["time"].as_array().unwrap();
+    assert!(dense.len() > 10_000, "{} samples", dense.len());
+    let last = String::from_utf8(out.stdout).unwrap().lines().last().unwrap().to_string();
+    let last: Value = serde_json::from_str(&last).unwrap();
+    assert_eq!(last["dense"], true);
+    let rows = last["rows"].as_array().unwrap();
+    assert!(rows.len() < dense.len() && rows.len() > 100, "{} rows", rows.len());
+    assert_eq!(rows[0][0], dense[0][0]);
+    assert_eq!(rows.last().unwrap()[0], dense.last().unwrap()[0], "the last sample is kept");
+}

@@ -88,9 +88,9 @@ pub struct Increment {
 /// The named layer builds them from [`BetweenNodes`](crate::BetweenNodes) (see its example).
 ///
 /// # Errors
-/// [`Ptr::start`](crate::Ptr::start) returns [`PtrError::IntervalConstraint`](crate::PtrError::IntervalConstraint) if `g` depends on the controls,
-/// the segments are not within the problem's nodes or the activation distance is not
-/// positive.
+/// [`Ptr::new`](crate::Ptr::new) returns [`PtrError::IntervalConstraint`] if `g` depends on
+/// the controls, the segments are not within the problem's nodes or the activation distance
+/// is not positive.
 #[derive(Debug, Clone)]
 pub struct IntervalConstraint {
     /// Name for diagnostics.

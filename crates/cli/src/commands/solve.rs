@@ -195,22 +195,40 @@ fn solve_observed(
             }
         })
         .map_err(CliError::bad_input)?;
-    if let Some(s) = streamer.as_mut() {
-        let sent = match stream_error.take() {
-            Some(e) => Err(e),
-            None => s
-                .publish(
-                    &solution.trajectory,
-                    solution.iterations as u64,
-                    wire_status(solution.status),
-                    solution.final_time,
-                    true,
-                )
-                .map(|_| ()),
-        };
-        sent.map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
+    if let Some(e) = stream_error {
+        // Streaming the iterates failed: the solve went on, its result is still written.
+        say(quiet, &format!("warning: --stream stopped: {e}"));
+        *streamer = None;
     }
     Ok((solution, iterates))
+}
+
+/// Publishes the final dense trajectory (after the outputs are written: streaming never costs
+/// the result), decimated when it does not fit one message.
+fn publish_final(
+    streamer: &mut Option<Streamer>,
+    solution: &Solution,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let Some(s) = streamer.as_mut() else { return Ok(()) };
+    let (_, stride) = s
+        .publish(
+            &solution.trajectory,
+            solution.iterations as u64,
+            wire_status(solution.status),
+            solution.final_time,
+            true,
+        )
+        .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
+    if stride > 1 {
+        say(
+            quiet,
+            &format!(
+                "streamed every {stride}th dense sample (and the last): the trajectory is larger than one message"
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// The summary lines: outcome and timings, and the largest violation.
@@ -298,6 +316,7 @@ pub fn run_task(
     for p in &written {
         say(o.quiet, &format!("wrote {}", p.display()));
     }
+    publish_final(&mut streamer, &solution, o.quiet)?;
     // Last: serve late subscribers (the summary and the files are already out).
     if let Some(s) = &streamer
         && o.linger > 0.0
