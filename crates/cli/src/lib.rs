@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 pub mod commands;
 pub mod exit;
 pub mod output;
+pub mod output_set;
 pub mod pipeline;
 pub mod plot;
 pub mod problem_file;
@@ -63,6 +64,18 @@ impl CliError {
     pub fn bad_input(message: impl std::fmt::Display) -> Self {
         CliError { message: message.to_string(), code: exit::BAD_INPUT }
     }
+}
+
+/// Reads an input file: regular files only, bounded in size, UTF-8 (a bad byte located at
+/// `file:line:col`), see [`armature_kinematics::read_text_file`].
+///
+/// # Errors
+/// A bad-input [`CliError`] naming the file.
+pub fn read_input(path: &std::path::Path) -> Result<String, CliError> {
+    armature_kinematics::read_text_file(path).map_err(|e| {
+        let (at, reason) = armature_kinematics::located_read_error(&path.display().to_string(), &e);
+        CliError::bad_input(format!("{at}: {reason}"))
+    })
 }
 
 /// Runs the binary with already-parsed arguments, writing results to `out`; returns the

@@ -1,36 +1,26 @@
-//! Result files: JSON, CSV per trajectory, written atomically (a temporary file in the
-//! same folder, then a rename), so a failed run never leaves a half-written file.
+//! Result files: JSON, CSV per trajectory, the 3D view, staged in an [`OutputSet`] so a run's
+//! files are renamed into place together and a failed run leaves none of its files.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use armature_scvx::Solution;
 
+use crate::output_set::OutputSet;
 use crate::{CliError, exit};
 
 fn io_error(path: &Path, e: impl std::fmt::Display) -> CliError {
     CliError { message: format!("{}: {e}", path.display()), code: exit::IO }
 }
 
-/// Writes `bytes` to `path` atomically.
+/// Writes `bytes` to `path` atomically (a one-file [`OutputSet`]).
 ///
 /// # Errors
 /// An [`exit::IO`] error naming the path.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| io_error(path, "not a file path"))?;
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io_error(path, e));
-    }
-    Ok(())
+    let mut set = OutputSet::default();
+    set.stage(path, bytes)?;
+    set.commit().map(|_| ())
 }
 
 /// Creates `dir` (and parents).
@@ -85,7 +75,8 @@ pub struct ResultFile<'a> {
     pub iterates: &'a [crate::view::Iterate],
 }
 
-/// Writes what was asked for: the JSON result (`-` = standard output) and the CSV tables.
+/// Stages what was asked for in `set`: the JSON result (`-` = standard output, written at
+/// once) and the CSV tables.
 ///
 /// # Errors
 /// Serialization or writing failures ([`exit::IO`]).
@@ -94,44 +85,37 @@ pub fn write_solution(
     json: Option<&Path>,
     csv_dir: Option<&Path>,
     out: &mut dyn Write,
-) -> Result<Vec<PathBuf>, CliError> {
-    let mut written = Vec::new();
+    set: &mut OutputSet,
+) -> Result<(), CliError> {
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(result)
             .map_err(|e| CliError { message: e.to_string(), code: exit::IO })?;
         if path == Path::new("-") {
             writeln!(out, "{text}").map_err(|e| io_error(path, e))?;
         } else {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                ensure_dir(dir)?;
-            }
-            write_atomic(path, text.as_bytes())?;
-            written.push(path.to_path_buf());
+            set.stage(path, text.as_bytes())?;
         }
     }
     if let Some(dir) = csv_dir {
         let solution = result.solution;
-        ensure_dir(dir)?;
         for (name, table) in
             [("nodes.csv", &solution.nodes), ("trajectory.csv", &solution.trajectory)]
         {
-            let path = dir.join(name);
-            write_atomic(&path, csv(table).as_bytes())?;
-            written.push(path);
+            set.stage(&dir.join(name), csv(table).as_bytes())?;
         }
     }
-    Ok(written)
+    Ok(())
 }
 
-/// Writes the 3D view of `data` to `path`.
+/// Stages the 3D view of `data` for `path` in `set`.
 ///
 /// # Errors
 /// Serialization or writing failures ([`exit::IO`]).
-pub fn write_html(data: &crate::view::ViewData, path: &Path) -> Result<PathBuf, CliError> {
+pub fn write_html(
+    data: &crate::view::ViewData,
+    path: &Path,
+    set: &mut OutputSet,
+) -> Result<(), CliError> {
     let page = crate::view::html(data).map_err(|e| io_error(path, e))?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        ensure_dir(dir)?;
-    }
-    write_atomic(path, page.as_bytes())?;
-    Ok(path.to_path_buf())
+    set.stage(path, page.as_bytes())
 }

@@ -6,7 +6,7 @@
 //! file is rendered to a temporary name and renamed, so a failure leaves no partial file.
 
 use std::error::Error;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Once;
 
 use armature_collision::ObstacleShape;
@@ -27,7 +27,7 @@ fn register_font() {
     });
 }
 
-/// Writes the plots into `dir`; returns the files written.
+/// Stages the plots for `dir` in `set`.
 ///
 /// # Errors
 /// Drawing or writing failures ([`exit::IO`]).
@@ -35,10 +35,9 @@ pub fn write_plots(
     plan: Option<&Plan>,
     solution: &Solution,
     dir: &Path,
-) -> Result<Vec<PathBuf>, CliError> {
+    set: &mut crate::output_set::OutputSet,
+) -> Result<(), CliError> {
     register_font();
-    crate::output::ensure_dir(dir)?;
-    let mut written = Vec::new();
     // One plot as SVG (rendered in memory, written atomically) and PNG (rendered to a
     // temporary file, renamed).
     macro_rules! plot {
@@ -54,23 +53,15 @@ pub fn write_plots(
                 $draw(&root, $plan, solution).map_err(fail)?;
                 root.present().map_err(|e| fail(e.into()))?;
             }
-            let svg_path = dir.join(format!("{name}.svg"));
-            crate::output::write_atomic(&svg_path, text.as_bytes())?;
-            written.push(svg_path);
-            let png_path = dir.join(format!("{name}.png"));
-            let tmp = dir.join(format!(".{name}.tmp-{}.png", std::process::id()));
+            set.stage(&dir.join(format!("{name}.svg")), text.as_bytes())?;
+            let tmp = set.stage_path(&dir.join(format!("{name}.png")))?;
             let drawn = (|| -> Result<(), Box<dyn Error>> {
                 let root = BitMapBackend::new(&tmp, $size).into_drawing_area();
                 $draw(&root, $plan, solution)?;
                 root.present()?;
                 Ok(())
             })();
-            let renamed = drawn.and_then(|()| std::fs::rename(&tmp, &png_path).map_err(Into::into));
-            if let Err(e) = renamed {
-                let _ = std::fs::remove_file(&tmp);
-                return Err(fail(e));
-            }
-            written.push(png_path);
+            drawn.map_err(fail)?;
         }};
     }
     plot!("convergence", (900, 600), convergence, &());
@@ -82,7 +73,7 @@ pub fn write_plots(
         }
         None => plot!("trajectory", (1200, 800), series_plot, &()),
     }
-    Ok(written)
+    Ok(())
 }
 
 /// One colour per joint.

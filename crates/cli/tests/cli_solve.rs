@@ -324,3 +324,78 @@ fn inspect_shows_constraints_sparsity_and_sizes_without_solving() {
     assert_eq!(code, 2);
     assert!(stderr.contains("task.toml:2:8"), "{stderr}");
 }
+
+/// Inputs that are not regular text files are refused at once with their name: a device
+/// (which would read forever), a device as the robot, a folder; invalid UTF-8 at its line
+/// and column.
+#[test]
+fn devices_folders_and_invalid_utf8_are_refused_with_their_position() {
+    let (code, _, stderr) = armature(&["solve", "/dev/zero", "-q"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("/dev/zero: not a regular file"), "{stderr}");
+    // A robot path that is a symlink to the device:
+    let dir = common::scratch("devzero");
+    let link = dir.path().join("zero.urdf");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let task = TASK.replacen("name = \"arm7\"", &format!("name = {:?}", link.to_str().unwrap()), 1);
+    let path = dir.path().join("task.toml");
+    std::fs::write(&path, task).unwrap();
+    let (code, _, stderr) = armature(&["solve", path.to_str().unwrap(), "-q"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("not a regular file"), "{stderr}");
+    let (code, _, stderr) = armature(&["solve", dir.path().to_str().unwrap(), "-q"]);
+    assert_eq!(code, 2, "{stderr}");
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, b"[robot]\nname = \"\xff\"\n").unwrap();
+    let (code, _, stderr) = armature(&["solve", bad.to_str().unwrap(), "-q"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("bad.toml:2:9: invalid UTF-8"), "{stderr}");
+}
+
+/// Outputs never replace what is not a regular output file: a device, the task itself; a
+/// symlink is written through; a destination that cannot take the set stops the run before
+/// it solves, and nothing of it is written.
+#[test]
+fn outputs_refuse_devices_and_inputs_and_write_through_symlinks() {
+    let (code, _, stderr) = armature(&["demo", "-q", "-o", "/dev/null"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("/dev/null: not a regular file"), "{stderr}");
+    let meta = std::fs::metadata("/dev/null").unwrap();
+    assert!(!meta.is_file(), "/dev/null is still a device");
+    let task = temp_file("self", "task.toml", TASK);
+    let (code, _, stderr) =
+        armature(&["solve", task.to_str().unwrap(), "-q", "-o", task.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("is an input of this run"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&*task).unwrap(), TASK, "the task is untouched");
+    let dir = scratch("outputs");
+    let (target, link) = (dir.path().join("target.json"), dir.path().join("link.json"));
+    std::fs::write(&target, "old").unwrap();
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let plots = dir.path().join("plots");
+    std::fs::write(&plots, "a file where the plots' folder goes").unwrap();
+    let csv = dir.path().join("csv");
+    let (code, _, stderr) = armature(&[
+        "demo",
+        "-q",
+        "-o",
+        link.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("plots: not a folder"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "old", "nothing of the set written");
+    assert!(!csv.exists());
+    let (code, _, stderr) = armature(&["demo", "-q", "-o", link.to_str().unwrap()]);
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&target).unwrap()).unwrap();
+    assert_solved(code, &r, &stderr);
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "link kept");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 3, "no temporary files left: {names:?}");
+}

@@ -98,9 +98,9 @@ pub fn load_robot(
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let read = || {
-        std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
-            location: spec.to_string(),
-            message: e.to_string(),
+        crate::read_text_file(path).map_err(|e| {
+            let (location, message) = crate::located_read_error(spec, &e);
+            KinematicsError::File { location, message }
         })
     };
     match ext.as_deref() {
@@ -109,6 +109,7 @@ pub fn load_robot(
             let xml = read()?;
             let robot = urdf_rs::read_from_string(&xml)
                 .map_err(|e| KinematicsError::Urdf(format!("malformed URDF {spec}: {e}")))?;
+            crate::urdf::check_tree(&robot)?;
             let children: Vec<&str> = robot.joints.iter().map(|j| j.child.link.as_str()).collect();
             let parents: Vec<&str> = robot.joints.iter().map(|j| j.parent.link.as_str()).collect();
             let root = robot.links.iter().map(|l| l.name.as_str()).find(|l| !children.contains(l));

@@ -5,6 +5,7 @@ mod chain;
 mod description;
 mod error;
 mod fk;
+mod input;
 pub mod robots;
 mod symbolic_fk;
 mod urdf;
@@ -13,5 +14,6 @@ pub use chain::{AXIS_TOLERANCE, Chain, ChainData, Joint, JointKind, Keypoint, Li
 pub use description::{chain_from_toml_str, load_robot};
 pub use error::KinematicsError;
 pub use fk::FkWorkspace;
+pub use input::{MAX_INPUT_BYTES, located_read_error, read_text_file};
 pub use symbolic_fk::SymbolicFk;
 pub use urdf::{chain_from_urdf_file, chain_from_urdf_str};

@@ -36,6 +36,7 @@ pub fn chain_from_urdf_str(
     keypoint_links: Option<&[&str]>,
 ) -> Result<Chain, KinematicsError> {
     let robot = urdf_rs::read_from_string(xml).map_err(|e| err(format!("malformed URDF: {e}")))?;
+    check_tree(&robot)?;
     for l in [base, tip] {
         if !robot.links.iter().any(|k| k.name == l) {
             let names: Vec<&str> = robot.links.iter().map(|k| k.name.as_str()).collect();
@@ -48,6 +49,9 @@ pub fn chain_from_urdf_str(
     let mut path = Vec::new();
     let mut link = tip;
     while link != base {
+        if path.len() > robot.joints.len() {
+            return Err(err(format!("the joints form a loop through link '{link}'")));
+        }
         match by_child.get(link) {
             Some(j) => {
                 path.push(*j);
@@ -149,9 +153,46 @@ pub fn chain_from_urdf_file(
     tip: &str,
     keypoint_links: Option<&[&str]>,
 ) -> Result<Chain, KinematicsError> {
-    let xml = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
-        location: path.display().to_string(),
-        message: e.to_string(),
+    let xml = crate::read_text_file(path).map_err(|e| {
+        let (location, message) = crate::located_read_error(&path.display().to_string(), &e);
+        KinematicsError::File { location, message }
     })?;
     chain_from_urdf_str(&xml, base, tip, keypoint_links)
+}
+
+/// The URDF's links and joints form a tree: names are unique, every joint joins two known,
+/// different links, and no link has two parent joints. (A loop is then found by the walk.)
+///
+/// # Errors
+/// [`KinematicsError::Urdf`] naming the first offending link or joint.
+pub(crate) fn check_tree(robot: &urdf_rs::Robot) -> Result<(), KinematicsError> {
+    let mut links = std::collections::HashSet::new();
+    for l in &robot.links {
+        if !links.insert(l.name.as_str()) {
+            return Err(err(format!("link '{}' is defined twice", l.name)));
+        }
+    }
+    let mut joints = std::collections::HashSet::new();
+    let mut parent_of: HashMap<&str, &str> = HashMap::new();
+    for j in &robot.joints {
+        let (parent, child) = (j.parent.link.as_str(), j.child.link.as_str());
+        if !joints.insert(j.name.as_str()) {
+            return Err(err(format!("joint '{}' is defined twice", j.name)));
+        }
+        if parent == child {
+            return Err(err(format!("joint '{}' joins link '{parent}' to itself", j.name)));
+        }
+        for l in [parent, child] {
+            if !links.contains(l) {
+                return Err(err(format!("joint '{}' names no link '{l}'", j.name)));
+            }
+        }
+        if let Some(other) = parent_of.insert(child, j.name.as_str()) {
+            return Err(err(format!(
+                "link '{child}' has two parent joints ('{other}' and '{}')",
+                j.name
+            )));
+        }
+    }
+    Ok(())
 }

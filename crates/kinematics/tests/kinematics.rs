@@ -503,3 +503,51 @@ fn a_urdf_with_several_leaves_asks_for_its_tip() {
     assert_eq!(load_robot(path.to_str().unwrap(), None, Some("tool")).unwrap().dof(), 4);
     std::fs::remove_file(&path).unwrap();
 }
+
+/// URDFs that are not trees are refused, naming the link or joint, instead of walking
+/// forever (a loop) or picking one of two parents.
+#[test]
+fn urdfs_that_are_not_trees_are_refused() {
+    let joint = |name: &str, parent: &str, child: &str| {
+        format!(
+            r#"<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#
+        )
+    };
+    let robot = |links: &[&str], joints: &[String]| {
+        let links: String = links.iter().map(|l| format!(r#"<link name="{l}"/>"#)).collect();
+        format!(r#"<robot name="r">{links}{}</robot>"#, joints.concat())
+    };
+    let cases = [
+        // j1: b → a, j2: a → b, and the base elsewhere: the walk from a never reaches it.
+        (
+            robot(&["base", "a", "b"], &[joint("j1", "b", "a"), joint("j2", "a", "b")]),
+            "base",
+            "a",
+            "loop through link",
+        ),
+        (
+            robot(&["base", "a", "b"], &[joint("j1", "base", "a"), joint("j2", "b", "a")]),
+            "base",
+            "a",
+            "link 'a' has two parent joints ('j1' and 'j2')",
+        ),
+        (
+            robot(&["base", "a", "a"], &[joint("j1", "base", "a")]),
+            "base",
+            "a",
+            "link 'a' is defined twice",
+        ),
+        (
+            robot(&["base", "a"], &[joint("j1", "base", "a"), joint("j1", "a", "a")]),
+            "base",
+            "a",
+            "joint 'j1' is defined twice",
+        ),
+        (robot(&["base", "a"], &[joint("j1", "a", "a")]), "base", "a", "joins link 'a' to itself"),
+        (robot(&["base", "a"], &[joint("j1", "base", "c")]), "base", "a", "names no link 'c'"),
+    ];
+    for (xml, base, tip, expected) in cases {
+        let e = chain_from_urdf_str(&xml, base, tip, None).unwrap_err();
+        assert!(e.to_string().contains(expected), "{expected}: {e}");
+    }
+}

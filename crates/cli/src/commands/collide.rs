@@ -35,8 +35,7 @@ pub fn run(args: &CollideArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     chain.check_q(&q).map_err(|e| CliError::bad_input(format!("--q: {e}")))?;
     let model = match &args.scene {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
+            let text = crate::read_input(path)?;
             let scene = scene_from_toml_str(&text, &path.display().to_string())
                 .map_err(CliError::bad_input)?;
             scene

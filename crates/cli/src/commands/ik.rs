@@ -73,8 +73,7 @@ pub fn run(args: &IkArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> 
         None => vec![0.0; chain.dof()],
     };
     let converged = if let Some(path) = &args.keyframes {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
+        let text = crate::read_input(path)?;
         let file: KeyframeFile = toml::from_str(&text).map_err(|e| {
             let at = e.span().map(|s| {
                 let before = &text[..s.start];

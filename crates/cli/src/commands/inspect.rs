@@ -24,8 +24,7 @@ pub struct InspectArgs {
 /// # Errors
 /// Bad input (as `armature solve`), output failures.
 pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> {
-    let text = std::fs::read_to_string(&args.file)
-        .map_err(|e| CliError::bad_input(format!("{}: {e}", args.file.display())))?;
+    let text = crate::read_input(&args.file)?;
     let name = args.file.display().to_string();
     let src = Source { name: &name, text: &text };
     let Loaded { plan, mut compiled, .. } = load(src, Some(&args.file))?;

@@ -9,6 +9,7 @@ use armature_scvx::{IterationTable, PtrStatus, Solution};
 use clap::Args;
 
 use crate::output::ResultFile;
+use crate::output_set::OutputSet;
 use crate::pipeline::plan;
 use crate::streaming::{Streamer, wire_status};
 use crate::task::{Source, parse};
@@ -58,8 +59,7 @@ pub struct SolveArgs {
 /// Bad input ([`exit::BAD_INPUT`], `file:line:col: reason`), output failures, or a solve
 /// that did not converge ([`exit::NOT_CONVERGED`], after writing its result).
 pub fn run(args: &SolveArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> {
-    let text = std::fs::read_to_string(&args.file)
-        .map_err(|e| CliError::bad_input(format!("{}: {e}", args.file.display())))?;
+    let text = crate::read_input(&args.file)?;
     let name = args.file.display().to_string();
     run_task(Source { name: &name, text: &text }, Some(&args.file), &args.output, out)
 }
@@ -73,6 +73,8 @@ pub struct Loaded {
     pub compiled: armature_scvx::CompiledProblem,
     /// Keypoint names (the frames block of streamed trajectories).
     pub keypoints: Vec<String>,
+    /// The files read: the task or problem file and a robot file (outputs must not be them).
+    pub inputs: Vec<PathBuf>,
 }
 
 /// Parses, checks and compiles a task file or a problem file (recognised by its
@@ -88,13 +90,30 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
         let compiled = problem
             .compile(settings)
             .map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
-        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new() });
+        let inputs = path.map(Path::to_path_buf).into_iter().collect();
+        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new(), inputs });
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
     let compiled = plan.compile().map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
-    Ok(Loaded { plan: Some(plan), compiled, keypoints })
+    let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
+    let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
+    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs })
+}
+
+/// Checks the destinations `o` names before solving (see [`crate::output_set`]).
+fn check_outputs(o: &OutputArgs, inputs: &[PathBuf]) -> Result<(), CliError> {
+    let mut files: Vec<PathBuf> =
+        o.output.iter().filter(|p| p.as_os_str() != "-").cloned().collect();
+    files.extend(o.html.iter().cloned());
+    if let Some(dir) = &o.csv {
+        files.extend(["nodes.csv", "trajectory.csv"].map(|n| dir.join(n)));
+    }
+    let files: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+    let dirs: Vec<&Path> = o.csv.iter().chain(&o.plot).map(PathBuf::as_path).collect();
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    crate::output_set::check_destinations(&files, &dirs, &inputs)
 }
 
 /// Prints a progress line unless quiet. A closed standard error (`2>&1 | head`) must not
@@ -266,15 +285,16 @@ fn write_outputs(
 ) -> Result<Vec<PathBuf>, CliError> {
     let scene = plan.map(Scene::from_plan);
     let result = ResultFile { solution, scene: scene.as_ref(), iterates: &iterates };
-    let mut written = output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out)?;
+    let mut set = OutputSet::default();
+    output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out, &mut set)?;
     if let Some(dir) = &o.plot {
-        written.extend(crate::plot::write_plots(plan, solution, dir)?);
+        crate::plot::write_plots(plan, solution, dir, &mut set)?;
     }
     if let Some(path) = &o.html {
         let data = ViewData::from_solution(name, solution, scene, iterates);
-        written.push(output::write_html(&data, path)?);
+        output::write_html(&data, path, &mut set)?;
     }
-    Ok(written)
+    set.commit()
 }
 
 /// Success, or the not-converged error saying why.
@@ -306,6 +326,7 @@ pub fn run_task(
 ) -> Result<(), CliError> {
     let t0 = Instant::now();
     let mut loaded = load(src, path)?;
+    check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
     let (solution, iterates) = solve_observed(&mut loaded, &mut streamer, o.quiet)?;

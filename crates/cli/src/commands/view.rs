@@ -27,8 +27,7 @@ pub struct ViewArgs {
 }
 
 fn read(path: &std::path::Path) -> Result<String, CliError> {
-    std::fs::read_to_string(path)
-        .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))
+    crate::read_input(path)
 }
 
 /// Runs `armature view`.
@@ -54,9 +53,15 @@ pub fn run(args: &ViewArgs, _out: &mut dyn std::io::Write) -> Result<(), CliErro
             CliError::bad_input(format!("{name} with the geometry of {task_name}: {e}"))
         })?;
     }
-    let path = output::write_html(&data, &args.output)?;
-    if !args.quiet {
-        let _ = writeln!(std::io::stderr(), "wrote {}", path.display());
+    let mut inputs = vec![args.result.as_path()];
+    inputs.extend(args.task.as_deref());
+    crate::output_set::check_destinations(&[&args.output], &[], &inputs)?;
+    let mut set = crate::output_set::OutputSet::default();
+    output::write_html(&data, &args.output, &mut set)?;
+    for path in set.commit()? {
+        if !args.quiet {
+            let _ = writeln!(std::io::stderr(), "wrote {}", path.display());
+        }
     }
     Ok(())
 }
