@@ -230,6 +230,7 @@ pub struct ConstraintSpec {
     /// A node range `[first, last]` (CTCS interval or nodal range).
     #[serde(default)]
     #[schemars(with = "Option<[usize; 2]>")]
+    #[serde(deserialize_with = "crate::task::optional_spanned_array")]
     pub over: Option<Spanned<[usize; 2]>>,
     /// CTCS penalty: `"squared_relu"` (default) or `"relu"`.
     #[serde(default)]

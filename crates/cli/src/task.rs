@@ -159,6 +159,7 @@ pub struct WaypointSpec {
     pub name: Spanned<String>,
     /// End-effector position (m).
     #[schemars(with = "[f64; 3]")]
+    #[serde(deserialize_with = "spanned_array")]
     pub position: Spanned<[f64; 3]>,
     /// Orientation `[w, x, y, z]` used by the IK guess, or `"free"`.
     #[serde(default)]
@@ -191,6 +192,7 @@ pub enum OrientationValue {
 pub struct OrientationSpec {
     /// The orientation `[w, x, y, z]`.
     #[schemars(with = "[f64; 4]")]
+    #[serde(deserialize_with = "spanned_array")]
     pub quaternion_wxyz: Spanned<[f64; 4]>,
     /// Largest rotation away from it (degrees, > 0).
     #[schemars(with = "f64")]
@@ -350,6 +352,37 @@ fn sequential() -> Spanned<String> {
 
 fn eight() -> usize {
     8
+}
+
+/// A located array of exactly `N` values (a longer or shorter list is an error at the value,
+/// not silently cut; see [`armature_kinematics::exact`]).
+///
+/// # Errors
+/// The entries' own, or an invalid length naming `N`.
+pub fn spanned_array<'de, D, T, const N: usize>(d: D) -> Result<Spanned<[T; N]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let s = Spanned::<Vec<T>>::deserialize(d)?;
+    let span = s.span();
+    Ok(Spanned::new(span, armature_kinematics::exact::exact(s.into_inner())?))
+}
+
+/// `Option<Spanned<[T; N]>>` of exactly `N` values (use with `#[serde(default)]`).
+///
+/// # Errors
+/// As [`spanned_array`].
+pub fn optional_spanned_array<'de, D, T, const N: usize>(
+    d: D,
+) -> Result<Option<Spanned<[T; N]>>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let Some(s) = Option::<Spanned<Vec<T>>>::deserialize(d)? else { return Ok(None) };
+    let span = s.span();
+    Ok(Some(Spanned::new(span, armature_kinematics::exact::exact(s.into_inner())?)))
 }
 
 /// An error located in a file.

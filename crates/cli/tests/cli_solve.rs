@@ -399,3 +399,38 @@ fn outputs_refuse_devices_and_inputs_and_write_through_symlinks() {
         .collect();
     assert_eq!(names.len(), 3, "no temporary files left: {names:?}");
 }
+
+/// A fixed-size array with extra (or missing) entries is an error at the value, never cut to
+/// its first entries: positions, quaternions, orientation keyframes, sphere centres.
+#[test]
+fn arrays_of_the_wrong_length_are_errors_not_truncated() {
+    let collision = include_str!("../../../examples/pick-and-place-collision.toml");
+    let cases = [
+        (TASK, "position = [0.35, -0.25, 0.2]", "position = [0.35, -0.25, 0.2, \"junk\", {a=1}]"),
+        (TASK, "position = [0.35, -0.25, 0.2]", "position = [0.35, -0.25, 0.2, 0.4]"),
+        (TASK, "position = [0.35, -0.25, 0.2]", "position = [0.35, -0.25]"),
+        (
+            collision,
+            "quaternion_wxyz = [0.7071067811865476, 0.0, 0.7071067811865476, 0.0]",
+            "quaternion_wxyz = [0.7071067811865476, 0.0, 0.7071067811865476, 0.0, 1.0]",
+        ),
+        (collision, "center = [0.35, 0.0, 0.25]", "center = [0.35, 0.0, 0.25, 9.0]"),
+        (
+            collision,
+            "orientation = [1.0, 0.0, 0.0, 0.0]",
+            "orientation = [1.0, 0.0, 0.0, 0.0, 0.0]",
+        ),
+    ];
+    for (i, (text, from, to)) in cases.into_iter().enumerate() {
+        assert!(text.contains(from), "case {i}: no '{from}'");
+        let changed = text.replacen(from, to, 1);
+        let line = changed[..changed.find(to).unwrap()].matches('\n').count() + 1;
+        let path = temp_file(&format!("array-{i}"), "task.toml", &changed);
+        let (code, _, stderr) = armature(&["solve", path.to_str().unwrap(), "-q"]);
+        assert_eq!(code, 2, "case {i}: {stderr}");
+        assert!(
+            stderr.contains(&format!("task.toml:{line}:")),
+            "case {i} at line {line}: {stderr}"
+        );
+    }
+}

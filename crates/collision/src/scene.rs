@@ -83,6 +83,7 @@ pub struct ObstacleSpec {
 #[serde(deny_unknown_fields)]
 pub struct SphereSpec {
     /// Centre.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub center: [f64; 3],
     /// Radius.
     pub radius: f64,
@@ -93,11 +94,14 @@ pub struct SphereSpec {
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
     /// Centre.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub center: [f64; 3],
     /// Orientation `[w, x, y, z]` (default identity).
     #[serde(default = "identity")]
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub quaternion_wxyz: [f64; 4],
     /// Half side lengths.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub half_extents: [f64; 3],
 }
 
@@ -110,8 +114,10 @@ fn identity() -> [f64; 4] {
 #[serde(deny_unknown_fields)]
 pub struct CapsuleSpec {
     /// Segment start.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub a: [f64; 3],
     /// Segment end.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub b: [f64; 3],
     /// Radius.
     pub radius: f64,
@@ -122,6 +128,7 @@ pub struct CapsuleSpec {
 #[serde(deny_unknown_fields)]
 pub struct HalfSpaceSpec {
     /// Unit normal into free space.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub normal: [f64; 3],
     /// Offset along the normal.
     pub offset: f64,

@@ -15,9 +15,11 @@ pub struct Keyframe {
     /// Node index.
     pub node: usize,
     /// End-effector position (m).
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
     pub position: [f64; 3],
     /// End-effector orientation `[w, x, y, z]`, or absent for position only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(deserialize_with = "armature_kinematics::exact::optional")]
     pub quaternion_wxyz: Option<[f64; 4]>,
 }
 

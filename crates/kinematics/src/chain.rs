@@ -59,6 +59,7 @@ pub struct Joint {
     pub kind: JointKind,
     /// Screw axis `[v; ω]` in the base frame at `q = 0`. A revolute joint through point `p`
     /// about unit axis `ω` has `v = −ω × p`.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub screw: [f64; 6],
     /// Limits.
     #[serde(default)]
@@ -104,6 +105,7 @@ pub struct Keypoint {
     /// Number of joints before it (0 = fixed to the base).
     pub after: usize,
     /// Position in the base frame at `q = 0`.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub position: [f64; 3],
 }
 
@@ -112,9 +114,11 @@ pub struct Keypoint {
 #[serde(deny_unknown_fields)]
 pub struct Pose {
     /// Translation.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub position: [f64; 3],
     /// Orientation `[w, x, y, z]`.
     #[serde(default = "identity_wxyz")]
+    #[serde(deserialize_with = "crate::exact::array")]
     pub quaternion_wxyz: [f64; 4],
 }
 

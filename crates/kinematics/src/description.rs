@@ -107,7 +107,7 @@ pub fn load_robot(
         Some("toml") => chain_from_toml_str(&read()?, spec),
         Some("urdf") => {
             let xml = read()?;
-            let robot = urdf_rs::read_from_string(&xml)
+            let robot = crate::urdf::parse_urdf(&xml)
                 .map_err(|e| KinematicsError::Urdf(format!("malformed URDF {spec}: {e}")))?;
             crate::urdf::check_tree(&robot)?;
             let children: Vec<&str> = robot.joints.iter().map(|j| j.child.link.as_str()).collect();

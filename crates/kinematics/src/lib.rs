@@ -4,6 +4,7 @@
 mod chain;
 mod description;
 mod error;
+pub mod exact;
 mod fk;
 mod input;
 pub mod robots;

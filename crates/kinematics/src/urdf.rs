@@ -35,7 +35,7 @@ pub fn chain_from_urdf_str(
     tip: &str,
     keypoint_links: Option<&[&str]>,
 ) -> Result<Chain, KinematicsError> {
-    let robot = urdf_rs::read_from_string(xml).map_err(|e| err(format!("malformed URDF: {e}")))?;
+    let robot = parse_urdf(xml).map_err(|e| err(format!("malformed URDF: {e}")))?;
     check_tree(&robot)?;
     for l in [base, tip] {
         if !robot.links.iter().any(|k| k.name == l) {
@@ -195,4 +195,23 @@ pub(crate) fn check_tree(robot: &urdf_rs::Robot) -> Result<(), KinematicsError> 
         }
     }
     Ok(())
+}
+
+/// Parses URDF text. The XML parser underneath panics on some malformed documents (an
+/// attribute with an unbound namespace prefix beside a default namespace, found by fuzzing): such a panic is caught and
+/// reported as a malformed document, without the panic message on standard error.
+///
+/// # Errors
+/// What is wrong with the document.
+pub(crate) fn parse_urdf(xml: &str) -> Result<urdf_rs::Robot, String> {
+    static HOOK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = HOOK.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let parsed = std::panic::catch_unwind(|| urdf_rs::read_from_string(xml));
+    std::panic::set_hook(previous);
+    match parsed {
+        Ok(r) => r.map_err(|e| e.to_string()),
+        Err(_) => Err("the XML parser rejected the document (e.g. an attribute with an empty namespace prefix)".into()),
+    }
 }

@@ -551,3 +551,12 @@ fn urdfs_that_are_not_trees_are_refused() {
         assert!(e.to_string().contains(expected), "{expected}: {e}");
     }
 }
+
+/// Found by fuzzing: the XML parser under `urdf-rs` panicked on an attribute with an empty
+/// namespace prefix beside a default namespace; the loader reports a malformed URDF instead.
+#[test]
+fn a_urdf_the_xml_parser_panics_on_is_a_malformed_urdf() {
+    let xml = r#"<?xml version="1.0"?><robot name="r"><link name="a" xmlns="6.2" :elocity="3.1"/></robot>"#;
+    let e = chain_from_urdf_str(xml, "a", "a", None).unwrap_err();
+    assert!(e.to_string().contains("malformed URDF: the XML parser rejected"), "{e}");
+}
