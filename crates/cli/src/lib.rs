@@ -66,6 +66,47 @@ impl CliError {
     }
 }
 
+/// Standard output for a reader that may stop reading (`armature demo -o - | head -1`): once
+/// the pipe is closed, further output is dropped instead of failing the run, whose exit code
+/// then says how the run itself went.
+#[derive(Debug)]
+pub struct ReaderMayLeave<W> {
+    inner: W,
+    closed: bool,
+}
+
+impl<W: std::io::Write> ReaderMayLeave<W> {
+    /// Wraps `inner`.
+    pub fn new(inner: W) -> Self {
+        ReaderMayLeave { inner, closed: false }
+    }
+}
+
+impl<W: std::io::Write> std::io::Write for ReaderMayLeave<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.closed {
+            return Ok(buf.len());
+        }
+        match self.inner.write(buf) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.closed = true;
+                Ok(buf.len())
+            }
+            other => other,
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self.inner.flush() {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.closed = true;
+                Ok(())
+            }
+            other => other,
+        }
+    }
+}
+
 /// Reads an input file: regular files only, bounded in size, UTF-8 (a bad byte located at
 /// `file:line:col`), see [`armature_kinematics::read_text_file`].
 ///

@@ -434,3 +434,21 @@ fn arrays_of_the_wrong_length_are_errors_not_truncated() {
         );
     }
 }
+
+/// A reader that stops reading (`armature demo -o - | head -1`) does not turn the run into an
+/// output failure: the exit code is the solve's.
+#[test]
+fn a_reader_closing_the_pipe_does_not_fail_the_run() {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_armature"))
+        .args(["demo", "-q", "-o", "-"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader leaves before the result is written
+    let out = child.wait_with_output().unwrap();
+    let code = out.status.code().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(code == 0 || code == 3, "exit {code}: {stderr}");
+    assert!(!stderr.contains("Broken pipe"), "{stderr}");
+}

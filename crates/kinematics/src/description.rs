@@ -97,6 +97,9 @@ pub fn load_robot(
 ) -> Result<Chain, KinematicsError> {
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if ext.as_deref() != Some("urdf") && (base.is_some() || tip.is_some()) {
+        return Err(KinematicsError::BaseTipNotUrdf(spec.to_string()));
+    }
     let read = || {
         crate::read_text_file(path).map_err(|e| {
             let (location, message) = crate::located_read_error(spec, &e);

@@ -560,3 +560,12 @@ fn a_urdf_the_xml_parser_panics_on_is_a_malformed_urdf() {
     let e = chain_from_urdf_str(xml, "a", "a", None).unwrap_err();
     assert!(e.to_string().contains("malformed URDF: the XML parser rejected"), "{e}");
 }
+
+/// Base and tip choose a chain within a URDF; given for another robot they are an error, not
+/// ignored.
+#[test]
+fn base_and_tip_for_a_built_in_robot_are_an_error() {
+    let e = load_robot("arm7", Some("base"), None).unwrap_err();
+    assert!(matches!(e, KinematicsError::BaseTipNotUrdf(_)), "{e}");
+    assert!(load_robot("ur5e", None, Some("tool")).is_err());
+}

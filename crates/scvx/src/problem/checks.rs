@@ -16,7 +16,8 @@ impl Problem {
         let mut checks = DenseChecks::default();
         for (name, g, first, last) in continuous {
             let what = format!("constraint \"{name}\"");
-            let function = Function::compile(&[g], args).map_err(sym(what))?;
+            let function = Function::compile(&[g], args).map_err(sym(what.clone()))?;
+            never_holds(&function, &what, false)?;
             checks.paths.push(PathCheck { name, function, first, last });
         }
         for c in interval_constraints {
@@ -180,6 +181,39 @@ impl Problem {
     }
 
     /// The guess: states and controls by name, uniform dilations, CTCS integrals along it.
+    /// The dynamics at every node of the guess are finite: a NaN or ∞ there (a division by
+    /// zero, the root or logarithm of a negative) is named by its state row and node, before
+    /// any iteration runs.
+    fn check_dynamics_at(&self, ocp: &Ocp, (x, u): (&[f64], &[f64])) -> Result<(), ProblemError> {
+        let (n, m) = (ocp.dynamics.n_x(), ocp.dynamics.n_u());
+        let f = ocp.dynamics.function();
+        let mut ws = f.workspace();
+        let mut values = vec![0.0; f.n_outputs()];
+        let mut input = vec![0.0; n + m];
+        let named: usize = self.states.iter().map(State::size).sum();
+        for k in 0..self.nodes {
+            input[..n].copy_from_slice(&x[k * n..(k + 1) * n]);
+            input[n..].copy_from_slice(&u[k * m..(k + 1) * m]);
+            f.eval(&input, &mut ws, &mut values, None).map_err(sym("dynamics at the guess"))?;
+            if let Some(r) = values.iter().position(|v| !v.is_finite()) {
+                let what = if r < named {
+                    format!("dynamics of {}", ocp.dynamics.state_name(r).unwrap_or("a state"))
+                } else {
+                    format!("continuous-time constraint group {}", r - named)
+                };
+                return Err(bad(
+                    what,
+                    format!(
+                        "evaluates to {} at node {k} of the initial guess (a division by zero, \
+                         or the root or logarithm of a negative number?)",
+                        values[r]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     pub(super) fn guess(
         &self,
         ocp: &Ocp,
@@ -235,6 +269,7 @@ impl Problem {
             Time::Free { guess, .. } => guess,
         };
         let s = vec![t.clamp(ocp.s_min, ocp.s_max); nn];
+        self.check_dynamics_at(ocp, (&x, &u))?;
         // The CTCS integrals along the guess (no defects in those rows from the start).
         let named: usize = self.states.iter().map(State::size).sum();
         if n > named {
@@ -250,5 +285,30 @@ impl Problem {
             }
         }
         Ok((x, u, s))
+    }
+}
+
+/// Refuses a constraint `g ≤ 0` (`g = 0` with `equality`) that reads no state or control and
+/// does not hold: no trajectory can satisfy it, so no solve should start (`2 <= 1`).
+///
+/// # Errors
+/// [`ProblemError::Bad`] naming the constraint and its value.
+pub(super) fn never_holds(f: &Function, what: &str, equality: bool) -> Result<(), ProblemError> {
+    if f.jacobian_pattern().nnz() > 0 {
+        return Ok(());
+    }
+    let mut values = vec![0.0; f.n_outputs()];
+    f.eval(&vec![0.0; f.n_inputs()], &mut f.workspace(), &mut values, None)
+        .map_err(sym(what.to_string()))?;
+    let broken = |v: &f64| !v.is_finite() || if equality { v.abs() > 1e-12 } else { *v > 0.0 };
+    match values.iter().find(|v| broken(v)) {
+        Some(v) => Err(bad(
+            what,
+            format!(
+                "reads no state or control and never holds (its g is {v}, needs g {})",
+                if equality { "= 0" } else { "≤ 0" }
+            ),
+        )),
+        None => Ok(()),
     }
 }

@@ -217,6 +217,7 @@ impl Problem {
             let what = format!("constraint \"{}\"", c.name());
             let g = c.function();
             let f = Function::compile(&[g.clone()], args).map_err(sym(what.clone()))?;
+            super::checks::never_holds(&f, &what, c.is_equality())?;
             nodal.push(NodalConstraint {
                 name: c.name().to_string(),
                 function: f,

@@ -1,0 +1,51 @@
+//! A model that cannot be solved is refused at compile time, naming the part: dynamics that
+//! evaluate to NaN or ∞ at the guess, a constraint that reads no variable and never holds.
+
+use armature_scvx::{Control, Problem, ProblemError, PtrSettings, State, Time};
+use armature_symbolic::Expr;
+
+fn problem(dv: impl Fn(&Expr, &Expr) -> Expr) -> Problem {
+    let p = State::new("p", 1).initial_value(&[0.0]).final_value(&[1.0]);
+    let v = State::new("v", 1).bounds(&[-10.0], &[10.0]).initial_value(&[0.0]).final_value(&[0.0]);
+    let a = Control::new("a", 1).bounds(&[-1.0], &[1.0]);
+    Problem {
+        dynamics: vec![v.expr(), dv(&v.expr(), &a.expr())],
+        states: vec![p, v],
+        controls: vec![a],
+        time: Time::Free { min: 0.0, max: 10.0, guess: 3.0, minimize: true },
+        ..Problem::new(11)
+    }
+}
+
+fn refused(p: Problem) -> String {
+    match p.compile(PtrSettings::default()) {
+        Err(e @ ProblemError::Bad { .. }) => e.to_string(),
+        Err(other) => panic!("another error: {other}"),
+        Ok(_) => panic!("compiled"),
+    }
+}
+
+#[test]
+fn dynamics_that_are_not_finite_at_the_guess_are_named() {
+    let e = refused(problem(|_, a| a / &Expr::scalar(0.0)));
+    assert!(e.contains("dynamics of v") && e.contains("node 0"), "{e}");
+    let e = refused(problem(|v, a| &(v - 1.0).sqrt() + a));
+    assert!(e.contains("dynamics of v") && e.contains("NaN"), "{e}");
+    // Finite dynamics compile.
+    assert!(problem(|_, a| a.clone()).compile(PtrSettings::default()).is_ok());
+}
+
+#[test]
+fn a_constraint_on_no_variable_that_never_holds_is_refused() {
+    let mut p = problem(|_, a| a.clone());
+    p.constraints.push(Expr::scalar(2.0).le(1.0).at(&[3]).named("two below one").into());
+    let e = refused(p);
+    assert!(e.contains("two below one") && e.contains("never holds"), "{e}");
+    let mut p = problem(|_, a| a.clone());
+    p.constraints.push(Expr::scalar(2.0).le(1.0).ctcs().named("always broken").into());
+    assert!(refused(p).contains("always broken"));
+    // A constant constraint that holds is harmless.
+    let mut p = problem(|_, a| a.clone());
+    p.constraints.push(Expr::scalar(0.0).le(1.0).at(&[3]).named("holds").into());
+    assert!(p.compile(PtrSettings::default()).is_ok());
+}
