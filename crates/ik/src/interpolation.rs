@@ -50,6 +50,10 @@ impl IkTrajectory {
     }
 }
 
+/// Largest node a keyframe may sit at: one IK solve per node, so this bounds the work an
+/// input can ask for (100,000 nodes take seconds).
+pub const MAX_KEYFRAME_NODE: usize = 100_000;
+
 /// The interpolated targets at nodes `0..=last keyframe node`: positions linear and
 /// orientations by slerp between consecutive keyframes (position-only where either end is
 /// position-only); nodes before the first keyframe take its target.
@@ -64,6 +68,12 @@ pub fn interpolate_targets(keyframes: &[Keyframe]) -> Result<Vec<Target>, IkErro
     }
     let mut targets = Vec::with_capacity(keyframes.len());
     for (i, k) in keyframes.iter().enumerate() {
+        if k.node > MAX_KEYFRAME_NODE {
+            return bad(format!(
+                "keyframe {i}: node {} is beyond the largest node {MAX_KEYFRAME_NODE}",
+                k.node
+            ));
+        }
         if i > 0 && k.node <= keyframes[i - 1].node {
             return bad(format!(
                 "keyframe {i}: node {} does not come after node {}",

@@ -7,7 +7,9 @@ mod solver;
 mod spline;
 
 pub use error::IkError;
-pub use interpolation::{IkTrajectory, Keyframe, Mode, ik_interpolation, interpolate_targets};
+pub use interpolation::{
+    IkTrajectory, Keyframe, MAX_KEYFRAME_NODE, Mode, ik_interpolation, interpolate_targets,
+};
 pub use solver::{
     IkResult, IkSettings, IkWorkspace, LOCAL_RESTART_STEP, LOCAL_RESTARTS, Nullspace, Target, solve,
 };

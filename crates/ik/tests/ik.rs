@@ -228,3 +228,12 @@ fn astronomically_far_targets_are_not_converged() {
         assert!(rel.abs() < 1e-6, "{x}: error {} m", r.position_error);
     }
 }
+
+/// A keyframe at an absurd node is an error naming the limit, not hours of IK.
+#[test]
+fn a_keyframe_beyond_the_largest_node_is_an_error() {
+    let k = |node| armature_ik::Keyframe { node, position: [0.5, 0.0, 0.4], quaternion_wxyz: None };
+    let e = armature_ik::interpolate_targets(&[k(0), k(100_000_000)]).unwrap_err();
+    assert!(e.to_string().contains("beyond the largest node 100000"), "{e}");
+    assert!(armature_ik::interpolate_targets(&[k(0), k(10)]).is_ok());
+}

@@ -569,3 +569,43 @@ fn base_and_tip_for_a_built_in_robot_are_an_error() {
     assert!(matches!(e, KinematicsError::BaseTipNotUrdf(_)), "{e}");
     assert!(load_robot("ur5e", None, Some("tool")).is_err());
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+    /// Hostile URDFs — random joint graphs over a few links (loops, two parents, self-joins,
+    /// unknown links), odd joint types, huge or non-numeric values, truncated text — load or
+    /// fail with an error, never panic or hang.
+    #[test]
+    fn hostile_urdfs_never_panic_or_hang(
+        links in 1usize..6,
+        joints in proptest::collection::vec((0usize..7, 0usize..7, 0usize..5, 0usize..6), 0..9),
+        base in 0usize..7,
+        tip in 0usize..7,
+        cut in proptest::option::of(0usize..2000),
+    ) {
+        let kinds = ["revolute", "continuous", "prismatic", "fixed", "floating"];
+        let values = ["0", "1e308", "-1e308", "nan", "inf", "x"];
+        let mut xml = String::from(r#"<?xml version="1.0"?><robot name="h">"#);
+        for l in 0..links {
+            xml += &format!(r#"<link name="l{l}"/>"#);
+        }
+        for (i, &(p, c, k, v)) in joints.iter().enumerate() {
+            let value = values[v];
+            xml += &format!(
+                r#"<joint name="j{i}" type="{}"><parent link="l{p}"/><child link="l{c}"/><origin xyz="{value} 0 0.1" rpy="0 {value} 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="{value}" effort="1" velocity="1"/></joint>"#,
+                kinds[k]
+            );
+        }
+        xml += "</robot>";
+        if let Some(c) = cut {
+            let mut c = c.min(xml.len());
+            while !xml.is_char_boundary(c) {
+                c -= 1;
+            }
+            xml.truncate(c);
+        }
+        let start = std::time::Instant::now();
+        let _ = chain_from_urdf_str(&xml, &format!("l{base}"), &format!("l{tip}"), None);
+        proptest::prop_assert!(start.elapsed().as_secs_f64() < 1.0, "took {:?}", start.elapsed());
+    }
+}

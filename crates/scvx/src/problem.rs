@@ -65,9 +65,15 @@ use crate::{
     Trajectory, Violation, ctcs_states,
 };
 
-/// Largest node count a [`Problem`] accepts (the subproblem grows linearly with it; this
-/// bound keeps absurd inputs from exhausting memory).
-pub const MAX_NODES: usize = 10_000;
+/// Largest node count a [`Problem`] accepts. The subproblem's size grows linearly with the
+/// nodes, but its solve does not yet (a two-state problem takes about 240 MB and 9 s for one
+/// iteration at 1,000 nodes, 1.2 GB and 390 s at 2,000; see the crate's BENCHMARKS.md): this
+/// bound keeps an input from exhausting memory or time before the first iteration.
+pub const MAX_NODES: usize = 1_000;
+
+/// Largest number of samples of the dense trajectory (the longest final time allowed over
+/// `dense_dt`): the result files and the dense checks grow with it.
+pub const MAX_DENSE_SAMPLES: usize = 200_000;
 
 /// How a continuous-time constraint is integrated (CTCS).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

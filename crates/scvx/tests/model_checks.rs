@@ -49,3 +49,17 @@ fn a_constraint_on_no_variable_that_never_holds_is_refused() {
     p.constraints.push(Expr::scalar(0.0).le(1.0).at(&[3]).named("holds").into());
     assert!(p.compile(PtrSettings::default()).is_ok());
 }
+
+#[test]
+fn what_sizes_memory_is_capped_with_the_setting_named() {
+    let mut p = problem(|_, a| a.clone());
+    p.time = Time::Free { min: 0.0, max: 1e9, guess: 3.0, minimize: true };
+    let e = refused(p);
+    assert!(e.contains("dense_dt") && e.contains("200000"), "{e}");
+    let mut settings = PtrSettings::default();
+    settings.dense_dt = 1e-9;
+    let e = problem(|_, a| a.clone()).compile(settings).err().unwrap().to_string();
+    assert!(e.contains("dense_dt"), "{e}");
+    let p = Problem { nodes: armature_scvx::MAX_NODES + 1, ..problem(|_, a| a.clone()) };
+    assert!(refused(p).contains("nodes"));
+}

@@ -45,6 +45,21 @@ impl Problem {
         }
         self.check_variables()?;
         let (s_lo, s_hi) = self.check_time()?;
+        let longest = match self.time {
+            Time::Fixed(t) => t,
+            Time::Free { max, .. } => max,
+        };
+        if longest / settings.dense_dt > MAX_DENSE_SAMPLES as f64 {
+            return Err(bad(
+                "dense_dt",
+                format!(
+                    "{} s would take up to {:.0} samples for a final time of up to {longest} s; \
+                     at most {MAX_DENSE_SAMPLES} (raise dense_dt or lower the time's maximum)",
+                    settings.dense_dt,
+                    longest / settings.dense_dt
+                ),
+            ));
+        }
         let Timed { groups, group_names, nodal_specs, continuous } = self.sort_constraints()?;
         let Augmented { dynamics, state_exprs, control_exprs, n_named } =
             self.augmented_dynamics(&groups)?;
