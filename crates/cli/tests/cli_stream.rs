@@ -185,3 +185,23 @@ fn a_trajectory_too_large_for_one_message_is_streamed_decimated_after_the_result
     assert_eq!(rows[0][0], dense[0][0]);
     assert_eq!(rows.last().unwrap()[0], dense.last().unwrap()[0], "the last sample is kept");
 }
+
+/// `listen --follow --timeout S` that received a final trajectory ends its session with exit
+/// 0 when the run goes quiet (exit 3 is for a timeout without one).
+#[test]
+fn a_following_listener_that_got_the_final_trajectory_exits_0_on_its_timeout() {
+    let run = format!("cli-follow-{}", std::process::id());
+    let mut listener = bin()
+        .args(["listen", &run, "--follow", "--timeout", "3"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let _rest = wait_for(&mut listener, "listening on");
+    let (code, _, stderr) = armature(&["demo", "-q", "--stream", &run]);
+    assert!(code == 0 || code == 3, "{stderr}");
+    let out = listener.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("dense"), "{stdout}");
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+}

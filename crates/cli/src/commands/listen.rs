@@ -56,6 +56,9 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
     );
     let idle = args.timeout.map(Duration::from_secs_f64);
     let mut last = Instant::now();
+    // With --follow: a final trajectory has arrived, so an idle timeout ends a complete
+    // session (exit 0), not a missing one.
+    let mut got_final = false;
     loop {
         let slice = Duration::from_millis(200);
         let (progress, trajectory) = sub
@@ -116,10 +119,14 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
             if args.once || (is_final && !args.follow) {
                 return Ok(());
             }
+            got_final |= is_final;
         }
         if let Some(idle) = idle
             && last.elapsed() >= idle
         {
+            if got_final {
+                return Ok(());
+            }
             return Err(CliError {
                 message: format!("no message on run '{}' for {} s", args.run, idle.as_secs_f64()),
                 code: exit::NOT_CONVERGED,
