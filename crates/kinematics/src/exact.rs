@@ -28,10 +28,10 @@ where
     exact(Vec::<T>::deserialize(d)?)
 }
 
-/// [`array`] for an optional field (use with `#[serde(default)]`).
+/// [`array()`] for an optional field (use with `#[serde(default)]`).
 ///
 /// # Errors
-/// As [`array`].
+/// As [`array()`].
 pub fn optional<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
 where
     D: Deserializer<'de>,
