@@ -653,3 +653,39 @@ fn between(
 pub fn is_problem(text: &str) -> bool {
     text.parse::<toml::Table>().map(|t| t.contains_key("states")).unwrap_or(false)
 }
+
+/// A problem-layer error of the problem built from `file`, located at the item it names: a
+/// state's or control's `name`, a state's `dynamics`, a constraint's `expr`; the file's start
+/// when it names none of them.
+pub fn locate(
+    file: &ProblemFile,
+    src: Source<'_>,
+    e: &armature_scvx::ProblemError,
+) -> LocatedError {
+    use armature_scvx::ProblemError;
+    let what = match e {
+        ProblemError::Bad { what, .. } | ProblemError::Symbolic { what, .. } => what.as_str(),
+        _ => "",
+    };
+    let unquote = |s: &str| s.trim().trim_matches('"').to_string();
+    let base = |s: &str| s.split('[').next().unwrap_or(s).to_string();
+    let at = if let Some(name) = what.strip_prefix("dynamics of ") {
+        let name = base(&unquote(name));
+        file.states.iter().find(|s| *s.name.get_ref() == name).map(|s| s.dynamics.span().start)
+    } else if let Some(name) = what.strip_prefix("state ") {
+        let name = unquote(name);
+        file.states.iter().find(|s| *s.name.get_ref() == name).map(|s| s.name.span().start)
+    } else if let Some(name) = what.strip_prefix("control ") {
+        let name = unquote(name);
+        file.controls.iter().find(|c| *c.name.get_ref() == name).map(|c| c.name.span().start)
+    } else if let Some(name) = what.strip_prefix("constraint ") {
+        let name = unquote(name);
+        file.constraints
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name.as_str()) || *c.expr.get_ref() == name)
+            .map(|c| c.expr.span().start)
+    } else {
+        None
+    };
+    src.error_at(at.unwrap_or(0), e.to_string())
+}

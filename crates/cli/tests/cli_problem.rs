@@ -226,3 +226,35 @@ fn a_huge_iteration_cap_solves_as_usual() {
         assert!(r["iterations"].as_u64().unwrap() < 150, "{cap}: {}", r["iterations"]);
     }
 }
+
+/// The problem layer's own checks come back located at the item they name: an initial value
+/// outside its bounds at the state's name, dynamics that are NaN at the guess at the
+/// dynamics, a constant constraint that never holds at its expression.
+#[test]
+fn problem_layer_errors_are_located_at_their_item() {
+    let cases = [
+        (
+            "initial = 0.0\nfinal = 1.0",
+            "initial = 20.0\nfinal = 1.0",
+            "name = \"p\"",
+            "state \"p\"",
+        ),
+        ("dynamics = \"a\"", "dynamics = \"a / 0\"", "dynamics = \"a / 0\"", "dynamics of v"),
+        (
+            "[[controls]]",
+            "[[constraints]]\nexpr = \"2 <= 1\"\nnodes = [3]\n\n[[controls]]",
+            "expr = \"2 <= 1\"",
+            "never holds",
+        ),
+    ];
+    for (i, (from, to, at, reason)) in cases.into_iter().enumerate() {
+        assert!(PROBLEM.contains(from), "case {i}");
+        let text = PROBLEM.replacen(from, to, 1);
+        let line = text[..text.find(at).unwrap()].matches('\n').count() + 1;
+        let path = temp_file(&format!("located-{i}"), "problem.toml", &text);
+        let (code, _, stderr) = armature(&["solve", path.to_str().unwrap(), "-q"]);
+        assert_eq!(code, 2, "case {i}: {stderr}");
+        assert!(stderr.contains(reason), "case {i}: {stderr}");
+        assert!(stderr.contains(&format!("problem.toml:{line}:")), "case {i} at {line}: {stderr}");
+    }
+}

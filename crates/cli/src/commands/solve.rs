@@ -89,7 +89,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             crate::problem_file::build(&file, src).map_err(CliError::bad_input)?;
         let compiled = problem
             .compile(settings)
-            .map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
+            .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
         return Ok(Loaded { plan: None, compiled, keypoints: Vec::new(), inputs });
     }
