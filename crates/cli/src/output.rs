@@ -13,24 +13,6 @@ fn io_error(path: &Path, e: impl std::fmt::Display) -> CliError {
     CliError { message: format!("{}: {e}", path.display()), code: exit::IO }
 }
 
-/// Writes `bytes` to `path` atomically (a one-file [`OutputSet`]).
-///
-/// # Errors
-/// An [`exit::IO`] error naming the path.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    let mut set = OutputSet::default();
-    set.stage(path, bytes)?;
-    set.commit().map(|_| ())
-}
-
-/// Creates `dir` (and parents).
-///
-/// # Errors
-/// An [`exit::IO`] error naming it.
-pub fn ensure_dir(dir: &Path) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| io_error(dir, e))
-}
-
 /// One CSV table: `time` first, then every other series flattened as `name[i]`.
 pub fn csv(table: &std::collections::BTreeMap<String, Vec<Vec<f64>>>) -> String {
     let mut names: Vec<&String> = table.keys().filter(|k| *k != "time").collect();

@@ -1,7 +1,7 @@
 //! The outputs of one run as one set: every file is first written to a temporary file beside
 //! its destination, and only when all of them are written are they renamed into place, in
 //! one go, with each destination folder locked (so two runs on the same paths do not mix
-//! their files). A failure before that, or a signal, removes the temporaries: the old files
+//! their files). A failure before that removes the temporaries: the old files
 //! stay as they were and nothing half-written is left.
 //!
 //! Destinations are checked before the solve ([`check_destinations`]): an existing
@@ -10,26 +10,15 @@
 //! replaced and the link kept.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::{CliError, exit};
 
-/// Temporary files of every set not yet committed (for the signal handler).
-static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Numbers the temporary files of this process.
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
 
 fn io_error(path: &Path, e: impl std::fmt::Display) -> CliError {
     CliError { message: format!("{}: {e}", path.display()), code: exit::IO }
-}
-
-/// Removes every temporary file not yet renamed into place (called on SIGINT/SIGTERM).
-pub fn remove_pending() {
-    let pending = PENDING.lock().map(|mut p| std::mem::take(&mut *p)).unwrap_or_default();
-    for p in pending {
-        let _ = std::fs::remove_file(p);
-    }
 }
 
 /// Where a destination is written: itself, or the file a symlink at it points to.
@@ -116,9 +105,6 @@ impl OutputSet {
         let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let tmp = dir.join(format!(".armature-{}-{n}.{ext}", std::process::id()));
-        if let Ok(mut p) = PENDING.lock() {
-            p.push(tmp.clone());
-        }
         self.staged.push(Staged { dest, tmp: tmp.clone() });
         Ok(tmp)
     }
@@ -167,14 +153,10 @@ impl OutputSet {
                 (Some(_), _) => {}
             }
         }
-        self.staged = staged; // what is left is removed by Drop
-        if let Ok(mut p) = PENDING.lock() {
-            p.retain(|t| !self.staged.iter().any(|s| &s.tmp == t));
-        }
-        for s in &self.staged {
+        // After a failed rename, the temporaries not renamed are removed.
+        for s in &staged {
             let _ = std::fs::remove_file(&s.tmp);
         }
-        self.staged.clear();
         failure.map_or(Ok(done), Err)
     }
 }
@@ -183,9 +165,6 @@ impl Drop for OutputSet {
     fn drop(&mut self) {
         for s in &self.staged {
             let _ = std::fs::remove_file(&s.tmp);
-        }
-        if let Ok(mut p) = PENDING.lock() {
-            p.retain(|t| !self.staged.iter().any(|s| &s.tmp == t));
         }
     }
 }

@@ -26,16 +26,20 @@ fn wait_for(
     panic!("the process ended without saying '{what}'");
 }
 
+/// Starts `armature ARGS` (a `listen`) and waits until it listens; its remaining stderr lines
+/// are returned to keep the pipe open.
+fn listen(
+    args: &[&str],
+) -> (std::process::Child, std::io::Lines<BufReader<std::process::ChildStderr>>) {
+    let mut child = bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let rest = wait_for(&mut child, "listening on");
+    (child, rest)
+}
+
 #[test]
 fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
     let run = format!("cli-json-{}", std::process::id());
-    let mut listener = bin()
-        .args(["listen", &run, "--json", "--timeout", "120"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let _rest = wait_for(&mut listener, "listening on");
+    let (listener, _rest) = listen(&["listen", &run, "--json", "--timeout", "120"]);
     let dir = scratch("stream");
     let result = dir.path().join("result.json");
     let (code, _, stderr) =
@@ -147,13 +151,7 @@ fn huge_timeouts_and_lingers_are_refused_before_anything_runs() {
 #[test]
 fn a_trajectory_too_large_for_one_message_is_streamed_decimated_after_the_result() {
     let run = format!("cli-big-{}", std::process::id());
-    let mut listener = bin()
-        .args(["listen", &run, "--json", "--timeout", "120"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let _rest = wait_for(&mut listener, "listening on");
+    let (listener, _rest) = listen(&["listen", &run, "--json", "--timeout", "120"]);
     let task = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../examples/pick-and-place.toml"
@@ -191,13 +189,7 @@ fn a_trajectory_too_large_for_one_message_is_streamed_decimated_after_the_result
 #[test]
 fn a_following_listener_that_got_the_final_trajectory_exits_0_on_its_timeout() {
     let run = format!("cli-follow-{}", std::process::id());
-    let mut listener = bin()
-        .args(["listen", &run, "--follow", "--timeout", "3"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let _rest = wait_for(&mut listener, "listening on");
+    let (listener, _rest) = listen(&["listen", &run, "--follow", "--timeout", "3"]);
     let (code, _, stderr) = armature(&["demo", "-q", "--stream", &run]);
     assert!(code == 0 || code == 3, "{stderr}");
     let out = listener.wait_with_output().unwrap();

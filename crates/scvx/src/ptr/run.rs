@@ -49,7 +49,6 @@ impl Ptr {
     /// # Errors
     /// As [`solve`](Self::solve).
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
-        self.settings.validate()?;
         let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
         for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
             if v.len() != len {
