@@ -4,7 +4,7 @@ use armature_lie::{SE3, SO3};
 use nalgebra::{Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
-use crate::KinematicsError;
+use crate::{Inertial, KinematicsError};
 
 /// Tolerance on unit axes and orthogonality checks of chain data.
 pub const AXIS_TOLERANCE: f64 = 1e-6;
@@ -64,9 +64,22 @@ pub struct Joint {
     /// Limits.
     #[serde(default)]
     pub limits: Limits,
+    /// Mass properties of the rigid body this joint moves (every link after it up to the next
+    /// joint), in the base frame at `q = 0`; needed by the rigid-body dynamics only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertial: Option<Inertial>,
+    /// The link this joint moves, where the source names one (a URDF's child link).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<String>,
 }
 
 impl Joint {
+    /// The same joint with the mass properties of the body it moves (base frame, `q = 0`).
+    pub fn with_inertial(mut self, inertial: Inertial) -> Joint {
+        self.inertial = Some(inertial);
+        self
+    }
+
     /// A revolute joint about the unit `axis` through `point` (base frame, `q = 0`).
     pub fn revolute(name: &str, axis: [f64; 3], point: [f64; 3], limits: Limits) -> Joint {
         let w = Vector3::from(axis);
@@ -76,6 +89,8 @@ impl Joint {
             kind: JointKind::Revolute,
             screw: [v.x, v.y, v.z, w.x, w.y, w.z],
             limits,
+            inertial: None,
+            link: None,
         }
     }
 
@@ -86,6 +101,8 @@ impl Joint {
             kind: JointKind::Prismatic,
             screw: [axis[0], axis[1], axis[2], 0.0, 0.0, 0.0],
             limits,
+            inertial: None,
+            link: None,
         }
     }
 
@@ -309,6 +326,9 @@ impl Chain {
                 {
                     return Err(bad(format!("{what} limit {x} is not positive")));
                 }
+            }
+            if let Some(inertial) = &j.inertial {
+                inertial.check().map_err(|r| bad(format!("inertial: {r}")))?;
             }
             if joints[..index].iter().any(|o| o.name == j.name) {
                 return Err(KinematicsError::DuplicateName { what: "joint", name: j.name.clone() });

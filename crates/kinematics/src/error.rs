@@ -77,4 +77,25 @@ pub enum KinematicsError {
         /// The value.
         value: f64,
     },
+    /// A joint whose body has no mass properties, for the rigid-body dynamics.
+    #[error("joint '{joint}'{}: no mass properties for the rigid-body dynamics ({})",
+        link.as_ref().map(|l| format!(" (link '{l}')")).unwrap_or_default(),
+        if link.is_some() { "the URDF gives the links it moves no <inertial>" } else { "give the joint an `inertial`" })]
+    NoInertial {
+        /// The joint.
+        joint: String,
+        /// The link it moves, where the source names one.
+        link: Option<String>,
+    },
+    /// A mass matrix that is not positive definite at `q = 0`.
+    #[error(
+        "the mass matrix is singular at q = 0 from joint '{joint}' on: the bodies after it have no inertia about its axis"
+    )]
+    SingularMassMatrix {
+        /// The first joint whose pivot vanished.
+        joint: String,
+    },
+    /// A gravity vector with a non-finite entry.
+    #[error("gravity {0:?} is not finite")]
+    BadGravity([f64; 3]),
 }

@@ -43,6 +43,8 @@ pub fn arm7() -> Chain {
             kind: JointKind::Revolute,
             screw: screws[i],
             limits: Limits::symmetric(qmax[i].to_radians(), 3.0, tmax[i]),
+            inertial: None,
+            link: None,
         })
         .collect();
     let kp = |name: &str, after, position| Keypoint { name: name.into(), after, position };

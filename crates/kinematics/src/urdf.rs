@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use armature_lie::{SE3, SO3};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::{Chain, Joint, JointKind, Keypoint, KinematicsError, Limits};
+use crate::{Chain, Inertial, Joint, JointKind, Keypoint, KinematicsError, Limits};
 
 fn origin(p: &urdf_rs::Pose) -> SE3 {
     let [r, pi, y] = p.rpy.0;
@@ -99,15 +99,23 @@ pub fn chain_from_urdf_str(
                 velocity: (l.velocity > 0.0).then_some(l.velocity),
                 effort: (l.effort > 0.0).then_some(l.effort),
             };
-            joints.push(match kind {
+            let mut joint = match kind {
                 JointKind::Revolute => {
                     Joint::revolute(&j.name, axis.into(), frame.translation().into(), limits)
                 }
                 JointKind::Prismatic => Joint::prismatic(&j.name, axis.into(), limits),
-            });
+            };
+            joint.link = Some(j.child.link.clone());
+            joints.push(joint);
         }
         t = frame;
         links.push((j.child.link.clone(), joints.len(), t));
+        if let Some(body) = joints.last_mut() {
+            let on_path = |name: &str| path.iter().any(|p| p.child.link == name);
+            let mass = carried_mass(&robot, &j.child.link, &frame, &on_path);
+            let sum = body.inertial.unwrap_or(Inertial::ZERO).combined(&mass);
+            body.inertial = (!sum.is_zero()).then_some(sum);
+        }
     }
     let wanted: Vec<String> = match keypoint_links {
         Some(v) => v.iter().map(|s| s.to_string()).collect(),
@@ -141,6 +149,48 @@ pub fn chain_from_urdf_str(
     }
     keypoints.sort_by_key(|k| k.after);
     Chain::new(&robot.name, joints, t, keypoints)
+}
+
+/// The mass properties (base frame at `q = 0`) of link `name`, at home pose `frame`, and of
+/// every link hanging below it through fixed joints off the path (a flange, a camera).
+fn carried_mass(
+    robot: &urdf_rs::Robot,
+    name: &str,
+    frame: &SE3,
+    on_path: &dyn Fn(&str) -> bool,
+) -> Inertial {
+    let mut total = Inertial::ZERO;
+    // An explicit stack: the tree check ran first, so the walk ends.
+    let mut stack = vec![(name.to_string(), *frame)];
+    while let Some((link, frame)) = stack.pop() {
+        if let Some(l) = robot.links.iter().find(|l| l.name == link) {
+            let i = &l.inertial;
+            let local = Inertial {
+                mass: i.mass.value,
+                com: [0.0; 3],
+                inertia: [
+                    i.inertia.ixx,
+                    i.inertia.ixy,
+                    i.inertia.ixz,
+                    i.inertia.iyy,
+                    i.inertia.iyz,
+                    i.inertia.izz,
+                ],
+            };
+            if !local.is_zero() {
+                total = total.combined(&local.transformed(&(frame * origin(&i.origin))));
+            }
+        }
+        for j in &robot.joints {
+            if j.parent.link == link
+                && j.joint_type == urdf_rs::JointType::Fixed
+                && !on_path(&j.child.link)
+            {
+                stack.push((j.child.link.clone(), frame * origin(&j.origin)));
+            }
+        }
+    }
+    total
 }
 
 /// [`chain_from_urdf_str`] on a file.

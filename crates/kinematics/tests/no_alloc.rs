@@ -32,3 +32,27 @@ fn forward_and_jacobians_do_not_allocate() {
         "the counter sees allocations"
     );
 }
+
+#[test]
+fn dynamics_do_not_allocate() {
+    let xml = include_str!("fixtures/dynamics/arm7.urdf");
+    let chain = armature_kinematics::chain_from_urdf_str(xml, "base", "ee", None).unwrap();
+    let model = armature_kinematics::RigidBodyModel::new(&chain, [0.0, 0.0, -9.81]).unwrap();
+    let mut ws = model.workspace();
+    let n = model.dof();
+    let (mut q, qd, mut out) = (vec![0.3; n], vec![0.5; n], vec![0.0; n]);
+    let mut m = nalgebra::DMatrix::zeros(n, n);
+    let mut d = armature_kinematics::DynamicsPartials::new(n);
+    let count = allocations_during(|| {
+        for k in 0..100 {
+            q[k % n] += 0.01;
+            model.rnea(&mut ws, &q, &qd, &qd, &mut out).unwrap();
+            model.crba(&mut ws, &q, &mut m).unwrap();
+            model.aba(&mut ws, &q, &qd, &qd, &mut out).unwrap();
+            model.nonlinear_effects(&mut ws, &q, &qd, &mut out).unwrap();
+            model.rnea_derivatives(&mut ws, &q, &qd, &qd, &mut out, &mut d).unwrap();
+            model.aba_derivatives(&mut ws, &q, &qd, &qd, &mut out, &mut d).unwrap();
+        }
+    });
+    assert_eq!(count, 0);
+}
