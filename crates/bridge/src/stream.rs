@@ -596,7 +596,7 @@ impl TrajectorySubscriber {
             || self.try_receive(),
             |left| {
                 self.trajectory_event
-                    .timed_wait(|_| {}, left)
+                    .timed_wait(|_| {}, wait_slice(left))
                     .map(|_| ())
                     .map_err(|e| ipc("waiting for a trajectory")(&e))
             },
@@ -635,7 +635,7 @@ impl TrajectorySubscriber {
             || self.try_receive_progress(),
             |left| {
                 self.progress_event
-                    .timed_wait(|_| {}, left)
+                    .timed_wait(|_| {}, wait_slice(left))
                     .map(|_| ())
                     .map_err(|e| ipc("waiting for progress")(&e))
             },
@@ -665,11 +665,22 @@ impl TrajectorySubscriber {
             }
             // Both listeners are drained; sleep on the trajectory's in short slices so that
             // progress events are noticed too.
-            let slice = (deadline - now).min(Duration::from_millis(5));
+            let slice = wait_slice((deadline - now).min(Duration::from_millis(5)));
             self.progress_event.try_wait(|_| {}).map_err(|e| ipc("waiting")(&e))?;
             self.trajectory_event.timed_wait(|_| {}, slice).map_err(|e| ipc("waiting")(&e))?;
         }
     }
+}
+
+/// The shortest wait handed to iceoryx2's timed waits. Its datagram-socket waiter turns the
+/// duration into `SO_RCVTIMEO`, where a timeout below one microsecond becomes zero, which
+/// means *block forever*: a wait of the last few nanoseconds before a deadline hung a
+/// listener (seen in `armature listen --timeout`).
+const MIN_WAIT: Duration = Duration::from_millis(1);
+
+/// `left`, but never shorter than [`MIN_WAIT`].
+fn wait_slice(left: Duration) -> Duration {
+    left.max(MIN_WAIT)
 }
 
 /// Receive-or-sleep loop until `timeout`.
@@ -688,5 +699,18 @@ fn wait<T>(
             return Ok(None);
         }
         sleep(deadline - now)?;
+    }
+}
+
+#[cfg(test)]
+mod wait_tests {
+    use super::*;
+
+    #[test]
+    fn waits_are_never_shorter_than_a_millisecond() {
+        // A zero or sub-microsecond wait would reach SO_RCVTIMEO as 0: block forever.
+        assert_eq!(wait_slice(Duration::ZERO), MIN_WAIT);
+        assert_eq!(wait_slice(Duration::from_nanos(300)), MIN_WAIT);
+        assert_eq!(wait_slice(Duration::from_millis(4)), Duration::from_millis(4));
     }
 }

@@ -8,3 +8,5 @@ pub const BAD_INPUT: i32 = 2;
 pub const NOT_CONVERGED: i32 = 3;
 /// Writing the output failed.
 pub const IO: i32 = 4;
+/// Interrupted by SIGINT, SIGTERM or SIGHUP (128 + SIGINT, as shells report Ctrl-C).
+pub const INTERRUPTED: i32 = 130;

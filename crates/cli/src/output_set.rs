@@ -4,18 +4,53 @@
 //! their files). A failure before that removes the temporaries: the old files
 //! stay as they were and nothing half-written is left.
 //!
+//! An interrupt (SIGINT, SIGTERM, SIGHUP; [`install_interrupt_cleanup`]) removes the
+//! temporaries of every uncommitted set and exits with [`exit::INTERRUPTED`]; a commit in
+//! progress finishes first, so a set is in place whole or not at all.
+//!
 //! Destinations are checked before the solve ([`check_destinations`]): an existing
 //! destination must be a regular file (not a device, folder or pipe) and not one of the
 //! run's inputs. A destination that is a symlink is written through: the file it points to is
 //! replaced and the link kept.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::{CliError, exit};
 
 /// Numbers the temporary files of this process.
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
+
+/// The temporaries of every staged, uncommitted output of this process.
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn forget(tmps: &mut Vec<PathBuf>, staged: &[Staged]) {
+    tmps.retain(|p| !staged.iter().any(|s| &s.tmp == p));
+}
+
+/// Installs (once per process) the interrupt handler: on SIGINT, SIGTERM or SIGHUP it
+/// removes every pending temporary, says so on standard error and exits with
+/// [`exit::INTERRUPTED`].
+pub fn install_interrupt_cleanup() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // Without a handler (another one installed by an embedding program), the default
+        // action still ends the process; only the cleanup is lost.
+        let _ = ctrlc::set_handler(|| {
+            let tmps = pending();
+            for p in tmps.iter() {
+                let _ = std::fs::remove_file(p);
+            }
+            eprintln!("error: interrupted; no output of this run was written");
+            std::process::exit(exit::INTERRUPTED);
+        });
+    });
+}
 
 fn io_error(path: &Path, e: impl std::fmt::Display) -> CliError {
     CliError { message: format!("{}: {e}", path.display()), code: exit::IO }
@@ -105,6 +140,7 @@ impl OutputSet {
         let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let tmp = dir.join(format!(".armature-{}-{n}.{ext}", std::process::id()));
+        pending().push(tmp.clone());
         self.staged.push(Staged { dest, tmp: tmp.clone() });
         Ok(tmp)
     }
@@ -144,6 +180,8 @@ impl OutputSet {
             .filter(|f| f.lock().is_ok())
             .collect();
         let staged = std::mem::take(&mut self.staged);
+        // Held through the renames: an interrupt waits for the whole set to be in place.
+        let mut tmps = pending();
         let mut done = Vec::new();
         let mut failure = None;
         for s in &staged {
@@ -157,15 +195,18 @@ impl OutputSet {
         for s in &staged {
             let _ = std::fs::remove_file(&s.tmp);
         }
+        forget(&mut tmps, &staged);
         failure.map_or(Ok(done), Err)
     }
 }
 
 impl Drop for OutputSet {
     fn drop(&mut self) {
+        let mut tmps = pending();
         for s in &self.staged {
             let _ = std::fs::remove_file(&s.tmp);
         }
+        forget(&mut tmps, &self.staged);
     }
 }
 

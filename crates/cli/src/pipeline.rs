@@ -14,6 +14,7 @@ use armature_scvx::{
 use armature_symbolic::{Expr, Shape};
 use serde::Serialize;
 
+use crate::robot_dynamics::RobotDynamics;
 use crate::task::{Limit, LocatedError, OrientationValue, Source, TaskFile, resolve_robot};
 
 /// A waypoint as planned: where and when.
@@ -145,14 +146,14 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
     })
 }
 
-/// The robot's simple dynamics and limits, checked against its joints.
+/// The robot's dynamics and limits, checked against its joints.
 struct JointLimits {
-    inertia: Vec<f64>,
+    dynamics: RobotDynamics,
     velocity: Vec<f64>,
     torque: Vec<f64>,
 }
 
-/// `[robot]`'s inertias, velocity and torque limits (the robot's own where not given).
+/// `[robot]`'s dynamics, velocity and torque limits (the robot's own where not given).
 fn joint_limits(
     task: &TaskFile,
     chain: &Chain,
@@ -160,15 +161,7 @@ fn joint_limits(
 ) -> Result<JointLimits, LocatedError> {
     let robot = &task.robot;
     let n = chain.dof();
-    let inertia = robot.inertia.get_ref();
-    if inertia.len() != n {
-        return Err(src.error(&robot.inertia, format!("{} inertias for {n} joints", inertia.len())));
-    }
-    if let Some(i) = inertia.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err(
-            src.error(&robot.inertia, format!("inertia {} of joint {i} must be > 0", inertia[i]))
-        );
-    }
+    let dynamics = RobotDynamics::from_task(task, chain, src)?;
     let limit = |what: &str,
                  given: &Option<toml::Spanned<Limit>>,
                  robot_value: &dyn Fn(usize) -> Option<f64>| {
@@ -202,7 +195,7 @@ fn joint_limits(
     let velocity =
         limit("velocity_limit", &robot.velocity_limit, &|i| chain.joints()[i].limits.velocity)?;
     let torque = limit("torque_limit", &robot.torque_limit, &|i| chain.joints()[i].limits.effort)?;
-    Ok(JointLimits { inertia: inertia.clone(), velocity, torque })
+    Ok(JointLimits { dynamics, velocity, torque })
 }
 
 /// `[time]`: the final time's window `[min, max]`.
@@ -438,8 +431,8 @@ struct Guess {
     dilation: Vec<f64>,
 }
 
-/// IK through the keyframes, time-parameterized by a spline (zero end velocities) whose
-/// duration the limits allow, clamped into the time window.
+/// IK through the keyframes (from `[robot] start` if given), time-parameterized by a spline
+/// (zero end velocities) whose duration the limits allow, clamped into the time window.
 fn initial_guess(
     task: &TaskFile,
     chain: &Chain,
@@ -460,24 +453,108 @@ fn initial_guess(
             ));
         }
     };
-    let ik = ik_interpolation(
+    let start = start_configuration(task, chain, keyframes, src)?;
+    let mut ik = ik_interpolation(
         chain,
         keyframes,
-        &vec![0.0; n],
+        start.as_deref().unwrap_or(&vec![0.0; n]),
         &IkSettings { restarts: task.initialization.restarts, ..IkSettings::default() },
         mode,
     )
     .map_err(|e| src.error_at(0, format!("IK initialization: {e}")))?;
-    let amax: Vec<f64> = (0..n).map(|j| limits.torque[j] / limits.inertia[j]).collect();
+    if let Some(start) = start {
+        ik.q[0] = start;
+    }
     let knots = JointSpline::time_optimal_knots(&ik.q, &limits.velocity)
         .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
     let spline = JointSpline::through_timed(&ik.q, &knots)
         .map_err(|e| src.error_at(0, format!("initial guess: {e}")))?;
-    let duration =
-        spline.min_duration(&limits.velocity, &amax).clamp(t_min.max(1e-3 * t_max), t_max);
+    let window = (t_min.max(1e-3 * t_max), t_max);
+    let duration = guess_duration(&spline, &ik.q, limits, nodes, window);
     let mut dilation: Vec<f64> = knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
     dilation.push(dilation[nodes - 2]);
     Ok(Guess { ik, spline, duration, dilation })
+}
+
+/// `[robot] start`, checked: one finite angle per joint within its limits, putting the end
+/// effector within the first waypoint's tolerance.
+fn start_configuration(
+    task: &TaskFile,
+    chain: &Chain,
+    keyframes: &[Keyframe],
+    src: Source<'_>,
+) -> Result<Option<Vec<f64>>, LocatedError> {
+    let Some(start) = &task.robot.start else { return Ok(None) };
+    let q = start.get_ref();
+    chain.check_q(q).map_err(|e| src.error(start, format!("start: {e}")))?;
+    let (lo, hi) = chain.position_limits();
+    if let Some(j) = (0..q.len()).find(|&j| q[j] < lo[j] || q[j] > hi[j]) {
+        let name = &chain.joints()[j].name;
+        return Err(src.error(
+            start,
+            format!(
+                "start: joint {j} ('{name}') at {} is outside its limits [{}, {}]",
+                q[j], lo[j], hi[j]
+            ),
+        ));
+    }
+    let mut ws = chain.fk_workspace();
+    chain.forward(q, &mut ws).map_err(|e| src.error(start, format!("start: {e}")))?;
+    let (first, wp) = (&keyframes[0], &task.waypoints[0]);
+    let tolerance = wp.tolerance.as_ref().map_or(0.01, |t| *t.get_ref());
+    let gap = (ws.ee().translation() - nalgebra::Vector3::from(first.position)).norm();
+    if gap > tolerance {
+        return Err(src.error(
+            start,
+            format!(
+                "start puts the end effector {gap:.4} m from the first waypoint '{}' (tolerance {tolerance} m)",
+                wp.name.get_ref()
+            ),
+        ));
+    }
+    Ok(Some(q.clone()))
+}
+
+/// The guess's duration: the spline's shortest under the velocity limits and the
+/// accelerations the torque limits allow at the start, then (rigid-body dynamics) stretched
+/// until its torques at the nodes fit the limits; clamped into the window.
+fn guess_duration(
+    spline: &JointSpline,
+    q: &[Vec<f64>],
+    limits: &JointLimits,
+    nodes: usize,
+    (lo, hi): (f64, f64),
+) -> f64 {
+    let n = limits.torque.len();
+    let amax: Vec<f64> = match &limits.dynamics {
+        RobotDynamics::Decoupled(inertia) => {
+            (0..n).map(|j| limits.torque[j] / inertia[j]).collect()
+        }
+        RobotDynamics::RigidBody(model) => {
+            let (mut ws, mut m) = (model.workspace(), nalgebra::DMatrix::zeros(n, n));
+            match model.crba(&mut ws, &q[0], &mut m) {
+                Ok(()) => (0..n).map(|j| limits.torque[j] / m[(j, j)]).collect(),
+                Err(_) => limits.torque.clone(),
+            }
+        }
+    };
+    let mut duration = spline.min_duration(&limits.velocity, &amax).clamp(lo, hi);
+    if let RobotDynamics::RigidBody(_) = &limits.dynamics {
+        for _ in 0..30 {
+            let qd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.velocity(k, duration)).collect();
+            let qdd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.acceleration(k, duration)).collect();
+            let tau = limits.dynamics.torques(q, &qd, &qdd);
+            let ratio = tau
+                .iter()
+                .flat_map(|t| t.iter().zip(&limits.torque).map(|(t, l)| t.abs() / l))
+                .fold(0.0f64, f64::max);
+            if ratio <= 1.0 || duration >= hi {
+                break;
+            }
+            duration = (duration * ratio.sqrt().clamp(1.05, 2.0)).min(hi);
+        }
+    }
+    duration
 }
 
 /// The states (angles, velocities), the torques and the dynamics `q̈ = τ / I`, with their
@@ -492,8 +569,7 @@ fn states_and_dynamics(
     let n = chain.dof();
     let robot = &task.robot;
     let (ik, spline, duration) = (&guess.ik, &guess.spline, guess.duration);
-    let (inertia, velocity_limit, torque_limit) =
-        (&limits.inertia, &limits.velocity, &limits.torque);
+    let (velocity_limit, torque_limit) = (&limits.velocity, &limits.torque);
     let (qlo, qhi) = chain.position_limits();
     let angle = State::new("angle", n)
         .bounds(&qlo, &qhi)
@@ -506,19 +582,20 @@ fn states_and_dynamics(
         .guess((0..nodes).flat_map(|k| spline.velocity(k, duration)).collect());
     let velocity =
         if robot.velocity_limit_peaks { velocity.with_interval_bounds() } else { velocity };
+    let qd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.velocity(k, duration)).collect();
+    let qdd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.acceleration(k, duration)).collect();
+    let tau_guess = limits.dynamics.torques(&ik.q, &qd, &qdd);
     let torque = Control::new("torque", n)
         .bounds(&torque_limit.iter().map(|t| -t).collect::<Vec<_>>(), torque_limit)
         .guess(
-            (0..nodes)
-                .flat_map(|k| {
-                    let a = spline.acceleration(k, duration);
-                    (0..n).map(move |j| a[j] * inertia[j]).collect::<Vec<_>>()
-                })
+            tau_guess
+                .iter()
+                .flat_map(|t| t.iter().zip(torque_limit).map(|(t, l)| t.clamp(-l, *l)))
                 .collect(),
         );
-    let inv: Vec<f64> = inertia.iter().map(|i| 1.0 / i).collect();
+    let qdd_expr = limits.dynamics.acceleration(&angle.expr(), &velocity.expr(), &torque.expr());
     Problem {
-        dynamics: vec![velocity.expr(), &Expr::constant_vector(&inv) * &torque.expr()],
+        dynamics: vec![velocity.expr(), qdd_expr],
         states: vec![angle, velocity],
         controls: vec![torque],
         ..Problem::new(nodes)

@@ -5,6 +5,9 @@
 //! [robot]
 //! name = "arm7"                  # built-in (arm7, ur5e), or a .toml screw table / .urdf path
 //! inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]   # q̈ = τ / I
+//! # dynamics = "rigid_body"      # M(q)q̈ + C(q,q̇)q̇ + g(q) = τ from the URDF's <inertial>s
+//! # gravity = [0.0, 0.0, -9.81]  # m/s² (rigid_body only; default standard gravity along −z)
+//! # start = [0, -1.57, 1.57, -1.57, -1.57, 0]   # joint angles at the start (default: IK)
 //! velocity_limit = 3.0           # one value or one per joint (default: the robot's)
 //! torque_limit = [8, 8, 4, 4, 2, 1, 0.5]
 //!
@@ -76,7 +79,7 @@ pub struct TaskFile {
     pub settings: armature_scvx::PtrSettings,
 }
 
-/// The robot: kinematics and simple dynamics `q̈ = τ / I`.
+/// The robot: kinematics and its dynamics (`q̈ = τ / I`, or rigid-body).
 #[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RobotSpec {
@@ -90,9 +93,24 @@ pub struct RobotSpec {
     /// URDF tip link.
     #[serde(default)]
     pub tip: Option<String>,
-    /// Joint inertias (one per joint, > 0).
-    #[schemars(with = "Vec<f64>")]
-    pub inertia: Spanned<Vec<f64>>,
+    /// The dynamics model: `decoupled_inertia` (default; `q̈ = τ / I` with `inertia`) or
+    /// `rigid_body` (`M(q)q̈ + C(q, q̇)q̇ + g(q) = τ` from the robot's mass properties).
+    #[serde(default)]
+    #[schemars(with = "Option<DynamicsKind>")]
+    pub dynamics: Option<Spanned<DynamicsKind>>,
+    /// Joint inertias (one per joint, > 0) of the decoupled model.
+    #[serde(default)]
+    #[schemars(with = "Option<Vec<f64>>")]
+    pub inertia: Option<Spanned<Vec<f64>>>,
+    /// Gravity (m/s², base frame) of the rigid-body model. Default `[0, 0, −9.80665]`.
+    #[serde(default)]
+    #[schemars(with = "Option<[f64; 3]>")]
+    pub gravity: Option<Spanned<Vec<f64>>>,
+    /// Joint angles at the start (rad or m; default: IK of the first waypoint). The end
+    /// effector must then be within the first waypoint's tolerance.
+    #[serde(default)]
+    #[schemars(with = "Option<Vec<f64>>")]
+    pub start: Option<Spanned<Vec<f64>>>,
     /// Velocity limit: one value or one per joint (default: the robot's).
     #[serde(default)]
     #[schemars(with = "Option<Limit>")]
@@ -108,6 +126,16 @@ pub struct RobotSpec {
     /// iterations. Default false.
     #[serde(default)]
     pub velocity_limit_peaks: bool,
+}
+
+/// Which dynamics the robot obeys.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DynamicsKind {
+    /// `q̈ = τ / I` per joint (the seed tutorial's model).
+    DecoupledInertia,
+    /// `M(q)q̈ + C(q, q̇)q̇ + g(q) = τ` (ABA), from the robot's link inertials.
+    RigidBody,
 }
 
 /// One limit for all joints, or one per joint.

@@ -193,6 +193,42 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "no waypoint is named 'nowhere'",
     );
     bad(
+        "rigid-body-without-mass",
+        "inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]",
+        "dynamics = \"rigid_body\"",
+        "joint 'j1': no mass properties",
+    );
+    bad(
+        "inertia-with-rigid-body",
+        "name = \"arm7\"",
+        "name = \"arm7\"\ndynamics = \"rigid_body\"",
+        "remove `inertia`",
+    );
+    bad(
+        "gravity-decoupled",
+        "name = \"arm7\"",
+        "name = \"arm7\"\ngravity = [0.0, 0.0, -9.81]",
+        "gravity applies to dynamics = \"rigid_body\" only",
+    );
+    bad(
+        "start-far",
+        "name = \"arm7\"",
+        "name = \"arm7\"\nstart = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]",
+        "from the first waypoint 'home'",
+    );
+    bad(
+        "start-count",
+        "name = \"arm7\"",
+        "name = \"arm7\"\nstart = [0.0, 0.0]",
+        "start: expected 7 joint values, got 2",
+    );
+    bad(
+        "start-limits",
+        "name = \"arm7\"",
+        "name = \"arm7\"\nstart = [0.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0]",
+        "outside its limits",
+    );
+    bad(
         "inertia-count",
         "inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]",
         "inertia = [0.08, 0.06]",
@@ -244,6 +280,46 @@ fn every_bad_input_class_is_located_and_writes_nothing() {
         "subproblem.interior_point.max_iterations must be at least 1",
     );
     bad("settings-key", s, "[settings]\nsubstep = 4\n", "unknown field `substep`");
+}
+
+#[test]
+fn the_rigid_body_demo_starts_where_asked_and_keeps_its_limits() {
+    let scratch = scratch("ur5e-rigid-body");
+    let json = scratch.path().join("result.json");
+    let (code, _, stderr) =
+        armature(&["demo", "ur5e-rigid-body", "-q", "-o", json.to_str().unwrap()]);
+    let r = read_json(&json);
+    assert_solved(code, &r, &stderr);
+    let tf = r["final_time"].as_f64().unwrap();
+    assert!(tf > 0.5 && tf < 2.0, "{tf}");
+    assert!(r["iterations"].as_u64().unwrap() <= 60, "{}", r["iterations"]);
+    let traj = &r["trajectory"];
+    let rows = |key: &str| -> Vec<Vec<f64>> {
+        traj[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect())
+            .collect()
+    };
+    // It starts at rest at `start`, exactly.
+    use std::f64::consts::FRAC_PI_2 as H;
+    let start = [0.0, -H, H, -H, -H, 0.0];
+    for (a, b) in rows("angle")[0].iter().zip(start) {
+        assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+    }
+    // Torques and velocities within the UR5e's limits on the dense trajectory.
+    let torque_limit = [150.0, 150.0, 150.0, 28.0, 28.0, 28.0];
+    for row in rows("torque") {
+        for (t, l) in row.iter().zip(torque_limit) {
+            assert!(t.abs() <= l * (1.0 + 1e-6), "{t} beyond {l}");
+        }
+    }
+    for row in rows("velocity") {
+        for v in row {
+            assert!(v.abs() <= std::f64::consts::PI * (1.0 + 1e-3), "{v}");
+        }
+    }
 }
 
 #[test]
@@ -451,4 +527,51 @@ fn a_reader_closing_the_pipe_does_not_fail_the_run() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(code == 0 || code == 3, "exit {code}: {stderr}");
     assert!(!stderr.contains("Broken pipe"), "{stderr}");
+}
+
+#[test]
+fn an_interrupted_solve_exits_130_and_leaves_nothing() {
+    let scratch = scratch("interrupt");
+    let dir = scratch.path();
+    // A solve long enough to be interrupted: many nodes.
+    let text = TASK.replace("per_segment = 2", "per_segment = 40");
+    let task = dir.join("task.toml");
+    std::fs::write(&task, text).unwrap();
+    let out = dir.join("out");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_armature"))
+        .args(["solve", task.to_str().unwrap(), "-q", "-o"])
+        .arg(out.join("result.json"))
+        .arg("--csv")
+        .arg(out.join("csv"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    let pid = child.id().to_string();
+    let killed = std::process::Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    assert!(killed.success());
+    let result = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    let mut left: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    // Only the task; an output folder, if the run got that far, holds nothing.
+    if left.iter().any(|n| n == "out") {
+        let inside: Vec<_> = walk(&out);
+        assert!(inside.is_empty(), "left behind: {inside:?}");
+    }
+    assert!(left.iter().all(|n| n == "task.toml" || n == "out"), "{left:?}");
+}
+
+fn walk(d: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for e in std::fs::read_dir(d).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() { files.extend(walk(&p)) } else { files.push(p) }
+    }
+    files
 }

@@ -3,7 +3,7 @@
 use armature_lie::{SE3, SO3};
 use nalgebra::Vector3;
 
-use crate::{Chain, Joint, JointKind, Keypoint, KinematicsError, Limits};
+use crate::{Chain, Inertial, Joint, JointKind, Keypoint, KinematicsError, Limits};
 
 /// Names of the built-in robots accepted by [`builtin`].
 pub const BUILTIN: [&str; 2] = ["arm7", "ur5e"];
@@ -155,12 +155,37 @@ pub fn ur5e_dh() -> [DhRow; 6] {
     ]
 }
 
+/// The UR5e's published mass properties per link, in its DH frame (Universal Robots' "DH
+/// parameters for calculations of kinematics and dynamics": masses and centres of mass), with
+/// the principal inertias of UR's ur_description (BSD-3-Clause) about the centre of mass.
+pub fn ur5e_inertials() -> [Inertial; 6] {
+    let body = |mass, com, [ixx, iyy, izz]: [f64; 3]| Inertial {
+        mass,
+        com,
+        inertia: [ixx, 0.0, 0.0, iyy, 0.0, izz],
+    };
+    [
+        body(3.761, [0.0, -0.02561, 0.00193], [0.010267495893, 0.010267495893, 0.00666]),
+        body(8.058, [0.2125, 0.0, 0.11336], [0.1338857818623325, 0.1338857818623325, 0.0151074]),
+        body(2.846, [0.15, 0.0, 0.0265], [0.031209355099586295, 0.031209355099586295, 0.004095]),
+        body(1.37, [0.0, -0.0018, 0.01634], [0.00255989897604, 0.00255989897604, 0.0021942]),
+        body(1.3, [0.0, 0.0018, 0.01634], [0.00255989897604, 0.00255989897604, 0.0021942]),
+        body(
+            0.365,
+            [0.0, 0.0, -0.001159],
+            [9.890410052167731e-05, 9.890410052167731e-05, 0.0001321171875],
+        ),
+    ]
+}
+
 /// The UR5e from [`ur5e_dh`], with keypoints at the DH frame origins:
-/// base, shoulder, upper_arm, forearm, wrist_1, wrist_2, ee (frames 0…6).
+/// base, shoulder, upper_arm, forearm, wrist_1, wrist_2, ee (frames 0…6), and the mass
+/// properties of [`ur5e_inertials`] (so `dynamics = "rigid_body"` works on it).
 pub fn ur5e() -> Chain {
-    from_dh(
+    let rows = ur5e_dh();
+    let chain = from_dh(
         "ur5e",
-        &ur5e_dh(),
+        &rows,
         &[
             ("base", 0),
             ("shoulder", 1),
@@ -171,5 +196,13 @@ pub fn ur5e() -> Chain {
             ("ee", 6),
         ],
     )
-    .expect("the built-in ur5e is valid")
+    .expect("the built-in ur5e is valid");
+    let mut frame = SE3::identity();
+    let mut joints = chain.joints().to_vec();
+    for ((joint, row), inertial) in joints.iter_mut().zip(&rows).zip(ur5e_inertials()) {
+        frame = frame * dh_transform(row, 0.0);
+        joint.inertial = Some(inertial.transformed(&frame));
+    }
+    Chain::new("ur5e", joints, chain.home(), chain.keypoints().to_vec())
+        .expect("the built-in ur5e is valid")
 }

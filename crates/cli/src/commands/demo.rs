@@ -13,6 +13,8 @@ pub enum Example {
     PickAndPlace,
     /// The same with capsule links, self-collision and a ball obstacle.
     PickAndPlaceCollision,
+    /// A pick-and-place on the UR5e with its rigid-body dynamics under gravity.
+    Ur5eRigidBody,
 }
 
 impl Example {
@@ -26,6 +28,10 @@ impl Example {
             Example::PickAndPlaceCollision => (
                 "<built-in pick-and-place-collision>",
                 include_str!("../../../../examples/pick-and-place-collision.toml"),
+            ),
+            Example::Ur5eRigidBody => (
+                "<built-in ur5e-rigid-body>",
+                include_str!("../../../../examples/ur5e-rigid-body.toml"),
             ),
         }
     }

@@ -10,6 +10,7 @@
 mod aba;
 mod crba;
 mod derivatives;
+mod node;
 mod rnea;
 pub(crate) mod spatial;
 
