@@ -20,11 +20,12 @@
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 thread_local! {
     static WATCHING: Cell<bool> = const { Cell::new(false) };
+    /// This thread's count: tests watching on other threads at the same time (the test
+    /// harness runs them in parallel) do not add to it.
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
 }
 
 /// The system allocator, counting allocations and reallocations made on a watching thread.
@@ -51,17 +52,18 @@ unsafe impl GlobalAlloc for Counting {
 }
 
 fn count() {
-    if WATCHING.with(|w| w.get()) {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+    // `try_with`: during thread teardown the locals may be gone; nothing is watched then.
+    if WATCHING.try_with(|w| w.get()).unwrap_or(false) {
+        let _ = ALLOCATIONS.try_with(|a| a.set(a.get() + 1));
     }
 }
 
 /// Runs `f` and returns how many allocations it made on this thread (with [`Counting`]
 /// installed as the global allocator; 0 otherwise).
 pub fn allocations_during(f: impl FnOnce()) -> usize {
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = ALLOCATIONS.with(Cell::get);
     WATCHING.with(|w| w.set(true));
     f();
     WATCHING.with(|w| w.set(false));
-    ALLOCATIONS.load(Ordering::SeqCst) - before
+    ALLOCATIONS.with(Cell::get) - before
 }

@@ -39,18 +39,6 @@ impl DynamicsPartials {
             u_partial: DMatrix::zeros(n, n),
         }
     }
-
-    fn check(&self, n: usize) -> Result<(), KinematicsError> {
-        for m in [&self.q_partial, &self.qd_partial, &self.u_partial] {
-            if m.nrows() != n || m.ncols() != n {
-                return Err(KinematicsError::WrongJointCount {
-                    expected: n,
-                    got: m.nrows().max(m.ncols()),
-                });
-            }
-        }
-        Ok(())
-    }
 }
 
 impl RigidBodyModel {
@@ -69,7 +57,7 @@ impl RigidBodyModel {
         partials: &mut DynamicsPartials,
     ) -> Result<(), KinematicsError> {
         self.check(&[q, qd, qdd], &[tau.len()])?;
-        partials.check(self.dof())?;
+        self.check_partials(partials)?;
         self.kinematics(ws, q);
         self.rnea_passes(ws, qd, qdd, tau);
         self.rnea_sweeps(ws, qd, &mut partials.q_partial, &mut partials.qd_partial);
@@ -93,7 +81,7 @@ impl RigidBodyModel {
         partials: &mut DynamicsPartials,
     ) -> Result<(), KinematicsError> {
         self.check(&[q, qd, tau], &[qdd.len()])?;
-        partials.check(self.dof())?;
+        self.check_partials(partials)?;
         self.kinematics(ws, q);
         self.aba_passes(ws, qd, tau, qdd);
         let mut tau_back = std::mem::take(&mut ws.scratch);
@@ -113,6 +101,13 @@ impl RigidBodyModel {
         }
         q_partial.neg_mut();
         qd_partial.neg_mut();
+        Ok(())
+    }
+
+    fn check_partials(&self, p: &DynamicsPartials) -> Result<(), KinematicsError> {
+        for m in [&p.q_partial, &p.qd_partial, &p.u_partial] {
+            self.check_square(m)?;
+        }
         Ok(())
     }
 

@@ -1,0 +1,145 @@
+//! The task as an SCvx problem: states, controls and dynamics, then the task's constraints
+//! on the forward kinematics.
+
+use armature_lie::SO3;
+use armature_scvx::{
+    Ball, BetweenNodes, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, State,
+};
+use armature_symbolic::{Expr, Shape};
+
+use crate::dynamics::Resolved;
+use crate::guess::Guess;
+use crate::{ArmTask, Clearance, waypoint_parameter};
+
+/// The states (angles, velocities), the torques and the dynamics `q̈ = τ / I`, with their
+/// bounds, boundary values and guesses.
+pub(crate) fn states_and_dynamics(task: &ArmTask, dynamics: &Resolved, guess: &Guess) -> Problem {
+    let (chain, nodes) = (&task.chain, task.nodes);
+    let n = chain.dof();
+    let (ik, spline, duration) = (&guess.ik, &guess.spline, guess.duration);
+    let (velocity_limit, torque_limit) = (&task.velocity_limit, &task.torque_limit);
+    let (qlo, qhi) = chain.position_limits();
+    let angle = State::new("angle", n)
+        .bounds(&qlo, &qhi)
+        .initial_value(&ik.q[0])
+        .guess(ik.q.iter().flatten().copied().collect());
+    let velocity = State::new("velocity", n)
+        .bounds(&velocity_limit.iter().map(|v| -v).collect::<Vec<_>>(), velocity_limit)
+        .initial_value(&vec![0.0; n])
+        .final_value(&vec![0.0; n])
+        .guess((0..nodes).flat_map(|k| spline.velocity(k, duration)).collect());
+    let velocity =
+        if task.velocity_limit_peaks { velocity.with_interval_bounds() } else { velocity };
+    let qd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.velocity(k, duration)).collect();
+    let qdd: Vec<Vec<f64>> = (0..nodes).map(|k| spline.acceleration(k, duration)).collect();
+    let tau_guess = dynamics.torques(&ik.q, &qd, &qdd);
+    let torque = Control::new("torque", n)
+        .bounds(&torque_limit.iter().map(|t| -t).collect::<Vec<_>>(), torque_limit)
+        .guess(
+            tau_guess
+                .iter()
+                .flat_map(|t| t.iter().zip(torque_limit).map(|(t, l)| t.clamp(-l, *l)))
+                .collect(),
+        );
+    let qdd_expr = dynamics.acceleration(&angle.expr(), &velocity.expr(), &torque.expr());
+    Problem {
+        dynamics: vec![velocity.expr(), qdd_expr],
+        states: vec![angle, velocity],
+        controls: vec![torque],
+        ..Problem::new(nodes)
+    }
+}
+
+/// The task's constraints on the forward kinematics of `problem`'s angles: waypoint balls,
+/// orientation ranges, the table, clearances; and the outputs (end-effector pose, frames,
+/// clearances).
+///
+/// # Errors
+/// The symbolic forward kinematics' (for the robot).
+pub(crate) fn add_task_constraints(problem: &mut Problem, t: &ArmTask) -> Result<(), String> {
+    let (chain, velocity_limit_peaks) = (&t.chain, t.velocity_limit_peaks);
+    let nodes = problem.nodes;
+    let fk = chain.symbolic_fk(&problem.states[0].expr()).map_err(|e| e.to_string())?;
+    let p_ee = fk.ee_position();
+    // With the velocity peaks bounded, the limits' integral only has to catch what lies
+    // between the integration grid's points: a budget of 1e-5 (1e-6 slows the solve).
+    let eps = if velocity_limit_peaks { 1e-5 } else { 1e-6 };
+    let limits = CtcsOptions { penalty: Penalty::Relu, eps, group: 0 };
+    let mut constraints: Vec<ProblemConstraint> = Vec::new();
+    if let Some(h) = t.table_height {
+        constraints.push(ProblemConstraint {
+            constraint: (Expr::scalar(h) - p_ee.at(2)).le(0.0).ctcs().named("table"),
+            ctcs: limits,
+        });
+    }
+    let mut balls: Vec<Ball> = t
+        .waypoints
+        .iter()
+        .map(|p| Ball {
+            name: format!("waypoint {}", p.name),
+            g: &p_ee - Expr::parameter(&waypoint_parameter(&p.name), Shape::Vector(3), &p.position),
+            radius: p.tolerance,
+            nodes: vec![p.node],
+        })
+        .collect();
+    for o in &t.orientation {
+        let r = SO3::from_quaternion_wxyz(o.quaternion_wxyz).map_err(|e| e.to_string())?;
+        let (deg, first, last, name) = (o.tolerance_deg, o.first, o.last, &o.name);
+        let log = Expr::from_matrix(&r.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
+        constraints.push(
+            (log.norm2() - deg.to_radians())
+                .le(0.0)
+                .ctcs()
+                .over(first, last)
+                .named(format!("orientation {name} within {deg}°"))
+                .into(),
+        );
+        balls.push(Ball {
+            name: format!("orientation {name} within {deg}° at the nodes"),
+            g: log,
+            radius: deg.to_radians(),
+            nodes: (first..=last).collect(),
+        });
+    }
+    let mut between_nodes = Vec::new();
+    let mut outputs =
+        vec![("ee_position".to_string(), p_ee.clone()), ("ee_pose".to_string(), fk.t_ee.clone())];
+    for (name, frame) in &fk.frames {
+        outputs.push((format!("T_{name}"), frame.clone()));
+    }
+    if let Some(Clearance { model, margin, between_nodes_activation: activation }) = &t.collision {
+        let positions: Vec<Expr> = fk.positions.iter().map(|(_, p)| p.clone()).collect();
+        let distances = model.symbolic_distances(&positions);
+        if !distances.is_empty() {
+            // Every pair's signed distance, in the model's pair order (the 3D view's readout).
+            let all: Vec<Expr> = distances.iter().map(|(_, d)| d.clone()).collect();
+            outputs.push(("clearance".to_string(), Expr::concat(&all)));
+        }
+        if let (Some(activation), false) = (activation, distances.is_empty()) {
+            between_nodes.push(BetweenNodes {
+                name: "clearance".into(),
+                g: Expr::concat(&distances.iter().map(|(_, d)| *margin - d).collect::<Vec<_>>()),
+                first: 0,
+                last: nodes - 1,
+                activation: Some(*activation),
+            });
+        }
+        for (pair, d) in distances {
+            constraints.push(ProblemConstraint {
+                constraint: (*margin - &d).le(0.0).ctcs().named(format!("clearance {pair}")),
+                // An integral of its own: summed into the limits' integral, the clearance
+                // violations of single pairs are drowned and the solve stalls.
+                ctcs: CtcsOptions { group: 1, ..limits },
+            });
+            constraints.push(
+                (*margin - &d).le(0.0).named(format!("clearance {pair} at the nodes")).into(),
+            );
+        }
+    }
+    problem.constraints = constraints;
+    problem.balls = balls;
+    problem.between_nodes = between_nodes;
+    problem.outputs = outputs;
+    problem.state_bounds_ctcs = Some(limits);
+    Ok(())
+}

@@ -1,0 +1,80 @@
+//! The initial guess: IK through the waypoints (from the start configuration if given),
+//! timed by a spline at the joint limits.
+
+use armature_ik::{IkSettings, IkTrajectory, JointSpline, Keyframe, ik_interpolation};
+
+use crate::dynamics::Resolved;
+use crate::{ArmError, ArmTask, TaskItem};
+
+/// The initial guess.
+#[derive(Debug, Clone)]
+pub(crate) struct Guess {
+    pub(crate) ik: IkTrajectory,
+    pub(crate) spline: JointSpline,
+    pub(crate) duration: f64,
+    pub(crate) dilation: Vec<f64>,
+}
+
+/// IK through the waypoints, time-parameterized by a spline (zero end velocities) whose
+/// duration the limits allow, clamped into the time window.
+///
+/// # Errors
+/// The IK's or the spline's, as [`TaskItem::Initialization`].
+pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess, ArmError> {
+    let n = task.chain.dof();
+    let bad = |m: String| ArmError::new(TaskItem::Initialization, m);
+    let keyframes: Vec<Keyframe> = task
+        .waypoints
+        .iter()
+        .map(|w| Keyframe { node: w.node, position: w.position, quaternion_wxyz: w.orientation })
+        .collect();
+    let settings = IkSettings { restarts: task.initialization.restarts, ..IkSettings::default() };
+    let seed = task.start.clone().unwrap_or_else(|| vec![0.0; n]);
+    let mut ik =
+        ik_interpolation(&task.chain, &keyframes, &seed, &settings, task.initialization.mode)
+            .map_err(|e| bad(format!("IK initialization: {e}")))?;
+    if let Some(start) = &task.start {
+        ik.q[0] = start.clone();
+    }
+    let knots = JointSpline::time_optimal_knots(&ik.q, &task.velocity_limit)
+        .map_err(|e| bad(format!("initial guess: {e}")))?;
+    let spline = JointSpline::through_timed(&ik.q, &knots)
+        .map_err(|e| bad(format!("initial guess: {e}")))?;
+    let (t_min, t_max) = (task.time.min, task.time.max);
+    let duration = guess_duration(task, dynamics, &spline, &ik.q, (t_min.max(1e-3 * t_max), t_max));
+    let nodes = task.nodes;
+    let mut dilation: Vec<f64> = knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
+    dilation.push(dilation[nodes - 2]);
+    Ok(Guess { ik, spline, duration, dilation })
+}
+
+/// The guess's duration: the spline's shortest under the velocity limits and the
+/// accelerations the torque limits allow at the start, then (rigid-body dynamics) stretched
+/// until its torques at the nodes fit the limits; clamped into the window.
+fn guess_duration(
+    task: &ArmTask,
+    dynamics: &Resolved,
+    spline: &JointSpline,
+    q: &[Vec<f64>],
+    (lo, hi): (f64, f64),
+) -> f64 {
+    let amax = dynamics.accelerations_allowed(&q[0], &task.torque_limit);
+    let mut duration = spline.min_duration(&task.velocity_limit, &amax).clamp(lo, hi);
+    if let Resolved::RigidBody(_) = dynamics {
+        for _ in 0..30 {
+            let qd: Vec<Vec<f64>> = (0..task.nodes).map(|k| spline.velocity(k, duration)).collect();
+            let qdd: Vec<Vec<f64>> =
+                (0..task.nodes).map(|k| spline.acceleration(k, duration)).collect();
+            let ratio = dynamics
+                .torques(q, &qd, &qdd)
+                .iter()
+                .flat_map(|t| t.iter().zip(&task.torque_limit).map(|(t, l)| t.abs() / l))
+                .fold(0.0f64, f64::max);
+            if ratio <= 1.0 || duration >= hi {
+                break;
+            }
+            duration = (duration * ratio.sqrt().clamp(1.05, 2.0)).min(hi);
+        }
+    }
+    duration
+}

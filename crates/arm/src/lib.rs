@@ -1,0 +1,17 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+mod check;
+mod dynamics;
+mod error;
+pub mod fixtures;
+mod formulation;
+mod guess;
+mod plan;
+mod task;
+
+pub use error::{ArmError, TaskItem};
+pub use plan::{ArmPlan, waypoint_parameter};
+pub use task::{
+    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, TimeWindow, Waypoint,
+};

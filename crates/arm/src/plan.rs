@@ -1,0 +1,66 @@
+//! A checked task as a problem with its initial guess.
+
+use armature_ik::IkTrajectory;
+use armature_scvx::{CompiledProblem, Problem, ProblemError, PtrSettings, Time};
+
+use crate::dynamics::Resolved;
+use crate::{ArmError, ArmTask, TaskItem, check, formulation, guess};
+
+/// An [`ArmTask`] as an SCvx [`Problem`], with its initial guess.
+#[derive(Debug, Clone)]
+pub struct ArmPlan {
+    /// The problem (states `angle`, `velocity`; control `torque`; outputs `ee_position`,
+    /// `ee_pose`, `T_<keypoint>` and, with collision, `clearance`).
+    pub problem: Problem,
+    /// The guess of each segment's duration (the time dilation, N values).
+    pub dilation_guess: Vec<f64>,
+    /// The IK through the waypoints behind the guess.
+    pub ik: IkTrajectory,
+    /// Solver settings.
+    pub settings: PtrSettings,
+}
+
+/// Name of the parameter holding waypoint `name`'s position (change it between solves with
+/// `CompiledProblem::set_parameter`).
+pub fn waypoint_parameter(name: &str) -> String {
+    format!("waypoint.{name}")
+}
+
+impl ArmTask {
+    /// Checks the task and builds the problem and its guess.
+    ///
+    /// # Errors
+    /// An [`ArmError`] naming the part of the task at fault ([`TaskItem`]).
+    pub fn plan(&self) -> Result<ArmPlan, ArmError> {
+        check::check(self)?;
+        let dynamics = Resolved::new(&self.dynamics, &self.chain)?;
+        let guess = guess::initial_guess(self, &dynamics)?;
+        let mut problem = formulation::states_and_dynamics(self, &dynamics, &guess);
+        problem.time = Time::Free {
+            min: self.time.min,
+            max: self.time.max,
+            guess: guess.duration,
+            minimize: self.time.minimize,
+        };
+        formulation::add_task_constraints(&mut problem, self)
+            .map_err(|e| ArmError::new(TaskItem::Robot, e))?;
+        Ok(ArmPlan {
+            problem,
+            dilation_guess: guess.dilation,
+            ik: guess.ik,
+            settings: self.settings.clone(),
+        })
+    }
+}
+
+impl ArmPlan {
+    /// Compiles the problem and sets the guess.
+    ///
+    /// # Errors
+    /// The problem layer's (for a planned task, a bug rather than bad input).
+    pub fn compile(&self) -> Result<CompiledProblem, ProblemError> {
+        let mut c = self.problem.compile(self.settings.clone())?;
+        c.set_dilation_guess(&self.dilation_guess)?;
+        Ok(c)
+    }
+}

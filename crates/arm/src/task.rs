@@ -1,0 +1,131 @@
+//! The arm trajectory task as plain data.
+
+use armature_collision::CollisionModel;
+use armature_ik::Mode;
+use armature_kinematics::Chain;
+use armature_scvx::PtrSettings;
+use serde::Serialize;
+
+/// Which dynamics the arm obeys.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DynamicsModel {
+    /// `q̈ = τ / I` per joint, with these inertias (the seed tutorial's model; no gravity, no
+    /// coupling).
+    DecoupledInertia(Vec<f64>),
+    /// `M(q)q̈ + C(q, q̇)q̇ + g(q) = τ` from the chain's mass properties (every joint needs its
+    /// [`Inertial`](armature_kinematics::Inertial)), under `gravity` (m/s², base frame).
+    RigidBody {
+        /// Gravity (m/s²).
+        gravity: [f64; 3],
+    },
+}
+
+/// A waypoint: the end effector passes within `tolerance` of `position` at node `node`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Waypoint {
+    /// Its name.
+    pub name: String,
+    /// Its node.
+    pub node: usize,
+    /// Position (m).
+    pub position: [f64; 3],
+    /// Radius of its ball (m).
+    pub tolerance: f64,
+    /// The orientation `[w, x, y, z]` the initial guess's IK aims for (none: free).
+    #[serde(skip)]
+    pub orientation: Option<[f64; 4]>,
+}
+
+/// An orientation range: the end-effector rotation stays within `tolerance_deg` of
+/// `quaternion_wxyz` from node `first` to node `last`, in continuous time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrientationRange {
+    /// A name for reports (`from..to`).
+    pub name: String,
+    /// The desired rotation.
+    pub quaternion_wxyz: [f64; 4],
+    /// The largest rotation angle away from it (degrees).
+    pub tolerance_deg: f64,
+    /// First node.
+    pub first: usize,
+    /// Last node.
+    pub last: usize,
+}
+
+/// Capsule links and obstacles, kept apart by `margin`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clearance {
+    /// The collision model (its keypoint names must be the chain's).
+    pub model: CollisionModel,
+    /// The clearance every pair keeps (m).
+    pub margin: f64,
+    /// Also bound each segment's peak between the nodes, in the subproblem while some pair
+    /// comes within this distance of its margin (m); `None`: only the integral and the
+    /// nodes.
+    pub between_nodes_activation: Option<f64>,
+}
+
+/// The final time: free in `[min, max]`, minimized or not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeWindow {
+    /// Lower bound (s).
+    pub min: f64,
+    /// Upper bound (s).
+    pub max: f64,
+    /// Minimize the final time.
+    pub minimize: bool,
+}
+
+/// How the initial guess is made: IK through the waypoints (interpolated in task space).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Initialization {
+    /// Sequential (each node from the previous) or parallel IK.
+    pub mode: Mode,
+    /// Random restarts of a node whose IK fails.
+    pub restarts: usize,
+}
+
+impl Default for Initialization {
+    fn default() -> Self {
+        Initialization { mode: Mode::Sequential, restarts: 8 }
+    }
+}
+
+/// A robot-arm trajectory task: the robot and its dynamics, where to go and how, limits,
+/// obstacles, time, nodes and solver settings. [`ArmTask::plan`] checks it and builds the
+/// SCvx problem and its initial guess.
+///
+/// The states are the joint angles (`angle`) and velocities (`velocity`), the control the
+/// joint torques (`torque`, first-order hold). The arm starts at rest at the first waypoint
+/// (or at `start`) and ends at rest at the last. The end-effector is the chain's home frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmTask {
+    /// The robot.
+    pub chain: Chain,
+    /// Its dynamics.
+    pub dynamics: DynamicsModel,
+    /// Joint velocity limits (one per joint, > 0).
+    pub velocity_limit: Vec<f64>,
+    /// Joint torque limits (one per joint, > 0).
+    pub torque_limit: Vec<f64>,
+    /// Also bound each segment's velocity peak between the nodes.
+    pub velocity_limit_peaks: bool,
+    /// The joint angles at the start (default: IK of the first waypoint).
+    pub start: Option<Vec<f64>>,
+    /// The final time.
+    pub time: TimeWindow,
+    /// Node count N.
+    pub nodes: usize,
+    /// Waypoints, the first at node 0 and the last at node N − 1.
+    pub waypoints: Vec<Waypoint>,
+    /// Orientation ranges.
+    pub orientation: Vec<OrientationRange>,
+    /// The end effector stays above this height (m).
+    pub table_height: Option<f64>,
+    /// Collision avoidance.
+    pub collision: Option<Clearance>,
+    /// The initial guess.
+    pub initialization: Initialization,
+    /// Solver settings.
+    pub settings: PtrSettings,
+}
