@@ -6,7 +6,7 @@ use std::path::Path;
 use armature_arm::{ArmError, ArmTask, Clearance, Initialization, TaskItem, TimeWindow};
 use armature_collision::{CollisionModel, Scene};
 use armature_ik::{IkTrajectory, Mode};
-use armature_kinematics::Chain;
+use armature_kinematics::{Chain, KinematicsError, LoadOptions, Pose};
 use armature_lie::SO3;
 use armature_scvx::{CompiledProblem, Problem, PtrSettings};
 
@@ -63,20 +63,7 @@ pub fn arm_task(
     path: Option<&Path>,
 ) -> Result<ArmTask, LocatedError> {
     let robot = &task.robot;
-    let spec = resolve_robot(robot.name.get_ref(), path);
-    let chain = armature_kinematics::load_robot(&spec, robot.base.as_deref(), robot.tip.as_deref())
-        .map_err(|e| {
-            let hint = match e {
-                armature_kinematics::KinematicsError::NoRootLink => {
-                    ": give `base = \"LINK\"` in [robot]"
-                }
-                armature_kinematics::KinematicsError::AmbiguousTip { .. } => {
-                    ": give `tip = \"LINK\"` in [robot]"
-                }
-                _ => "",
-            };
-            src.error(&robot.name, format!("{e}{hint}"))
-        })?;
+    let chain = robot_chain(task, src, path)?;
     let (velocity_limit, torque_limit) = joint_limits(task, &chain, src)?;
     let dynamics = dynamics_model(task, src)?;
     let (t_min, t_max) = time_window(task, src)?;
@@ -139,6 +126,47 @@ pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Pla
         ik: arm.ik,
         settings: arm.settings,
     })
+}
+
+/// `[robot]`'s chain: loaded (URDF base, tip and keypoint links as given), with its tool
+/// centre point.
+fn robot_chain(
+    task: &TaskFile,
+    src: Source<'_>,
+    path: Option<&Path>,
+) -> Result<Chain, LocatedError> {
+    let robot = &task.robot;
+    let spec = resolve_robot(robot.name.get_ref(), path);
+    let links: Option<Vec<&str>> =
+        robot.keypoints.as_ref().map(|k| k.get_ref().iter().map(String::as_str).collect());
+    let options = LoadOptions {
+        base: robot.base.as_deref(),
+        tip: robot.tip.as_deref(),
+        keypoint_links: links.as_deref(),
+    };
+    let chain = armature_kinematics::load_robot_with(&spec, &options).map_err(|e| {
+        let hint = match e {
+            KinematicsError::NoRootLink => ": give `base = \"LINK\"` in [robot]",
+            KinematicsError::AmbiguousTip { .. } => ": give `tip = \"LINK\"` in [robot]",
+            _ => "",
+        };
+        let message = format!("{e}{hint}");
+        match &robot.keypoints {
+            Some(k) if message.contains("keypoint") => src.error(k, message),
+            _ => src.error(&robot.name, message),
+        }
+    })?;
+    match &robot.tool {
+        None => Ok(chain),
+        Some(t) => {
+            let spec = t.get_ref();
+            let pose = Pose {
+                position: spec.position,
+                quaternion_wxyz: spec.quaternion_wxyz.unwrap_or([1.0, 0.0, 0.0, 0.0]),
+            };
+            chain.with_tool(&pose).map_err(|e| src.error(t, e.to_string()))
+        }
+    }
 }
 
 /// Where in the file the part of the task an [`ArmError`] names was written.

@@ -8,6 +8,8 @@
 //! # dynamics = "rigid_body"      # M(q)q̈ + C(q,q̇)q̇ + g(q) = τ from the URDF's <inertial>s
 //! # gravity = [0.0, 0.0, -9.81]  # m/s² (rigid_body only; default standard gravity along −z)
 //! # start = [0, -1.57, 1.57, -1.57, -1.57, 0]   # joint angles at the start (default: IK)
+//! # keypoints = ["base_link", "upper_arm_link", "forearm_link", "tool0"]  # URDF links
+//! # tool = { position = [0.0, 0.0, 0.12] }      # tool centre point in the tip frame
 //! velocity_limit = 3.0           # one value or one per joint (default: the robot's)
 //! torque_limit = [8, 8, 4, 4, 2, 1, 0.5]
 //!
@@ -106,6 +108,16 @@ pub struct RobotSpec {
     #[serde(default)]
     #[schemars(with = "Option<[f64; 3]>")]
     pub gravity: Option<Spanned<Vec<f64>>>,
+    /// URDF links to put keypoints at, named after them (default: the base, the child link
+    /// of every movable joint, and the tip). Capsules and frames name keypoints.
+    #[serde(default)]
+    #[schemars(with = "Option<Vec<String>>")]
+    pub keypoints: Option<Spanned<Vec<String>>>,
+    /// A tool centre point: the end effector moves by this offset in the tip's frame, and a
+    /// keypoint `tool` marks it. Waypoints and orientations are then the tool's.
+    #[serde(default)]
+    #[schemars(with = "Option<ToolSpec>")]
+    pub tool: Option<Spanned<ToolSpec>>,
     /// Joint angles at the start (rad or m; default: IK of the first waypoint). The end
     /// effector must then be within the first waypoint's tolerance.
     #[serde(default)]
@@ -126,6 +138,18 @@ pub struct RobotSpec {
     /// iterations. Default false.
     #[serde(default)]
     pub velocity_limit_peaks: bool,
+}
+
+/// A tool centre point's offset from the tip frame.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    /// Offset (m) in the tip frame.
+    #[serde(deserialize_with = "armature_kinematics::exact::array")]
+    pub position: [f64; 3],
+    /// Rotation `[w, x, y, z]` of the tool frame in the tip frame (default identity).
+    #[serde(default, deserialize_with = "armature_kinematics::exact::optional")]
+    pub quaternion_wxyz: Option<[f64; 4]>,
 }
 
 /// Which dynamics the robot obeys.

@@ -32,3 +32,39 @@ fn the_ur5e_example_is_the_rigid_body_fixture() {
         from_file("ur5e-rigid-body.toml", include_str!("../../../examples/ur5e-rigid-body.toml"));
     assert_eq!(file, fixtures::ur5e_rigid_body());
 }
+
+/// The UR5e-like URDF task of the fixtures folder, with `extra` added to its `[robot]`.
+fn ur_task(extra: &str) -> Result<ArmTask, String> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures");
+    let text = std::fs::read_to_string(format!("{dir}/ur5e-like-pick.toml"))
+        .unwrap()
+        .replace("[robot]\n", &format!("[robot]\n{extra}\n"));
+    let path = std::path::PathBuf::from(format!("{dir}/ur5e-like-pick.toml"));
+    let src = Source { name: "ur.toml", text: &text };
+    let task = parse(src).map_err(|e| e.to_string())?;
+    armature_cli::pipeline::arm_task(&task, src, Some(&path)).map_err(|e| e.to_string())
+}
+
+#[test]
+fn keypoints_by_link_name_and_a_tool_centre_point() {
+    let plain = ur_task("").unwrap();
+    let task = ur_task(
+        "keypoints = [\"base_link\", \"upper_arm_link\", \"forearm_link\", \"tool0\"]\ntool = { position = [0.0, 0.0, 0.1] }",
+    )
+    .unwrap();
+    let names: Vec<&str> = task.chain.keypoint_names().collect();
+    assert_eq!(names, ["base_link", "upper_arm_link", "forearm_link", "tool0", "tool"]);
+    // The end effector is 10 cm out along the flange's z axis.
+    let (a, b) = (plain.chain.home(), task.chain.home());
+    let z = a.rotation().matrix().column(2).into_owned();
+    assert!((b.translation() - a.translation() - 0.1 * z).norm() < 1e-12);
+    // A link off the chain, or not in the URDF, is an error at `keypoints` naming the links.
+    let e = ur_task("keypoints = [\"base_link\", \"gripper\"]").unwrap_err();
+    assert!(e.starts_with("ur.toml:") && e.contains("no link named 'gripper'"), "{e}");
+    assert!(e.contains("base_link → tool0: base_link, shoulder_link"), "{e}");
+    assert!(e.starts_with("ur.toml:6:13:"), "at the keypoints value: {e}");
+    let e =
+        ur_task("tool = { position = [0.0, 0.0, 0.1], quaternion_wxyz = [0.0, 0.0, 0.0, 0.0] }")
+            .unwrap_err();
+    assert!(e.contains("tool"), "{e}");
+}

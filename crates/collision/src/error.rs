@@ -4,8 +4,13 @@
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CollisionError {
     /// A link names a keypoint the chain does not have.
-    #[error("unknown keypoint '{0}'")]
-    UnknownKeypoint(String),
+    #[error("unknown keypoint '{name}' (the robot's keypoints: {})", valid.join(", "))]
+    UnknownKeypoint {
+        /// The name given.
+        name: String,
+        /// The chain's keypoint names.
+        valid: Vec<String>,
+    },
     /// Invalid model data.
     #[error("{0}")]
     Bad(String),

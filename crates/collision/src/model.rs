@@ -144,9 +144,35 @@ pub struct CollisionWorkspace {
     results: Vec<PairResult>,
 }
 
+/// Whether keypoints `a` and `b` of `chain` are one point of the arm for every `q`: equal,
+/// or at one place at `q = 0` (within 1e-9 m) with only revolute joints between them whose
+/// axes pass through it (a point on a joint's axis does not move with that joint).
+pub(crate) fn same_point(chain: &Chain, a: usize, b: usize) -> bool {
+    if a == b {
+        return true;
+    }
+    let (ka, kb) = (&chain.keypoints()[a], &chain.keypoints()[b]);
+    let (pa, pb) = (Vector3::from(ka.position), Vector3::from(kb.position));
+    if (pa - pb).norm() > 1e-9 {
+        return false;
+    }
+    let (lo, hi) = (ka.after.min(kb.after), ka.after.max(kb.after));
+    chain.joints()[lo..hi].iter().all(|j| {
+        let s = j.screw_vector();
+        let (v, w) = (s.fixed_rows::<3>(0).into_owned(), s.fixed_rows::<3>(3).into_owned());
+        // The velocity of the point under the joint's unit twist: zero on a revolute axis.
+        j.kind == armature_kinematics::JointKind::Revolute && (v + w.cross(&pa)).norm() < 1e-9
+    })
+}
+
 impl CollisionModel {
     /// A model for `chain`: links as `(start keypoint, end keypoint, radius)`, obstacles, and
     /// pair options.
+    ///
+    /// Links are adjacent (and skipped by `self_collision`) when an end of one is the same
+    /// point of the arm as an end of the other for every `q`: the same keypoint, or keypoints
+    /// at one place at `q = 0` with only revolute joints between them whose axes pass
+    /// through it (a URDF's child-link origin on its joint's axis, say).
     ///
     /// # Errors
     /// [`CollisionError`] for an unknown keypoint, a negative or non-finite radius, a
@@ -159,9 +185,10 @@ impl CollisionModel {
         options: &PairOptions,
     ) -> Result<CollisionModel, CollisionError> {
         let kp = |name: &str| {
-            chain
-                .keypoint_index(name)
-                .ok_or_else(|| CollisionError::UnknownKeypoint(name.to_string()))
+            chain.keypoint_index(name).ok_or_else(|| CollisionError::UnknownKeypoint {
+                name: name.to_string(),
+                valid: chain.keypoint_names().map(str::to_string).collect(),
+            })
         };
         let mut ls = Vec::new();
         for &(a, b, r) in links {
@@ -229,7 +256,9 @@ impl CollisionModel {
             for j in i + 1..ls.len() {
                 let (a, b) = (&ls[i], &ls[j]);
                 let adjacent =
-                    a.start == b.start || a.start == b.end || a.end == b.start || a.end == b.end;
+                    [(a.start, b.start), (a.start, b.end), (a.end, b.start), (a.end, b.end)]
+                        .iter()
+                        .any(|&(p, q)| same_point(chain, p, q));
                 let extra = options.extra.iter().any(|p| same(p, &a.name, &b.name));
                 if ((options.self_collision && !adjacent) || extra) && !skip(&a.name, &b.name) {
                     pairs.push(Pair {

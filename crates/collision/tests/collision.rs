@@ -364,7 +364,10 @@ fn pair_selection_and_errors() {
     let err = |links: &[(&str, &str, f64)], obs: Vec<Obstacle>| {
         CollisionModel::new(&arm, links, obs, &PairOptions::default()).unwrap_err().to_string()
     };
-    assert_eq!(err(&[("base", "hand", 0.1)], vec![]), "unknown keypoint 'hand'");
+    assert_eq!(
+        err(&[("base", "hand", 0.1)], vec![]),
+        "unknown keypoint 'hand' (the robot's keypoints: base, shoulder, elbow, wrist, ee)"
+    );
     assert!(err(&[("base", "shoulder", -0.1)], vec![]).contains("radius -0.1"));
     let sphere = |r| Obstacle {
         name: "s".into(),
@@ -393,4 +396,40 @@ fn pair_selection_and_errors() {
     assert!(two.to_string().contains("exactly one of"));
     let mut ws = model.workspace(&arm);
     assert!(model.evaluate(&arm, &[0.0; 6], &mut ws, true).is_err());
+}
+
+#[test]
+fn links_meeting_at_one_point_of_the_arm_are_adjacent_whatever_their_names() {
+    // In this URDF the shoulder link's origin lies on the next joint's axis, where the upper
+    // arm link starts: two keypoints, one point of the arm for every q.
+    let xml = include_str!("../../cli/tests/fixtures/ur5e-like.urdf");
+    let arm = armature_kinematics::chain_from_urdf_str(xml, "base_link", "tool0", None).unwrap();
+    let links = [
+        ("base_link", "shoulder_link", 0.06),
+        ("upper_arm_link", "forearm_link", 0.05),
+        ("forearm_link", "wrist_1_link", 0.04),
+    ];
+    let opts = PairOptions { self_collision: true, ..PairOptions::default() };
+    let m = CollisionModel::new(&arm, &links, vec![], &opts).unwrap();
+    let names: Vec<(&str, &str)> = m.pairs().iter().map(|p| (p.a.as_str(), p.b.as_str())).collect();
+    assert_eq!(names, [("base_link-shoulder_link", "forearm_link-wrist_1_link")]);
+    // The pair that is checked is apart at q = 0; the one skipped would always "collide".
+    let mut ws = m.workspace(&arm);
+    let r = m.evaluate(&arm, &[0.0; 6], &mut ws, false).unwrap();
+    assert!(r.iter().all(|p| p.distance > 0.0), "{r:?}");
+    // Points that coincide only at q = 0 are not adjacent: a keypoint at the elbow's place
+    // but moved by the elbow joint's neighbour, whose axis misses it.
+    let mut kps = arm.keypoints().to_vec();
+    let elbow = kps.iter().find(|k| k.name == "forearm_link").unwrap().clone();
+    kps.push(armature_kinematics::Keypoint {
+        name: "ghost".into(),
+        after: elbow.after + 1,
+        ..elbow
+    });
+    kps.sort_by_key(|k| k.after);
+    let ghosted =
+        armature_kinematics::Chain::new("ghost", arm.joints().to_vec(), arm.home(), kps).unwrap();
+    let links = [("upper_arm_link", "forearm_link", 0.05), ("ghost", "tool0", 0.04)];
+    let m = CollisionModel::new(&ghosted, &links, vec![], &opts).unwrap();
+    assert_eq!(m.pairs().len(), 1, "the ghost moves off the elbow: a pair to check");
 }

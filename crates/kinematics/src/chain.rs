@@ -415,6 +415,39 @@ impl Chain {
         Ok(())
     }
 
+    /// The same chain with a tool centre point: the end effector moves by `offset` (in the
+    /// current end-effector frame), and a keypoint named `tool` marks it (after every joint;
+    /// an existing `tool` keypoint is replaced).
+    ///
+    /// # Errors
+    /// [`KinematicsError::BadHome`] for an offset that is not a finite rigid transform.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_kinematics::{Pose, robots};
+    /// let arm = robots::arm7();
+    /// let tcp = arm.with_tool(&Pose { position: [0.0, 0.0, 0.1], quaternion_wxyz: [1.0, 0.0, 0.0, 0.0] }).unwrap();
+    /// let p = tcp.home().translation();
+    /// assert!((p - arm.home().translation()).norm() - 0.1 < 1e-12);
+    /// assert_eq!(tcp.keypoint_names().last(), Some("tool"));
+    /// ```
+    pub fn with_tool(&self, offset: &Pose) -> Result<Chain, KinematicsError> {
+        let rot = SO3::from_quaternion_wxyz(offset.quaternion_wxyz)
+            .map_err(|e| KinematicsError::BadHome(format!("tool: {e}")))?;
+        if offset.position.iter().any(|x| !x.is_finite()) {
+            return Err(KinematicsError::BadHome("tool: position is not finite".into()));
+        }
+        let home = self.home * SE3::from_parts(rot, Vector3::from(offset.position));
+        let mut keypoints: Vec<Keypoint> =
+            self.keypoints.iter().filter(|k| k.name != "tool").cloned().collect();
+        keypoints.push(Keypoint {
+            name: "tool".into(),
+            after: self.dof(),
+            position: home.translation().into(),
+        });
+        Chain::new(&self.name, self.joints.clone(), home, keypoints)
+    }
+
     /// Lower and upper position limits as vectors (`±∞` where absent).
     pub fn position_limits(&self) -> (Vec<f64>, Vec<f64>) {
         (

@@ -85,19 +85,44 @@ pub fn chain_from_toml_str(text: &str, origin: &str) -> Result<Chain, Kinematics
     })
 }
 
-/// Loads a robot from a built-in name (`arm7`, `ur5e`), a `.toml` screw table, or a `.urdf`
-/// file (with `base` and `tip` links; by default the URDF's root link and its single leaf).
+/// Which part of a robot description to load: for a URDF, the base and tip links (default:
+/// the root link and the single leaf) and the links to put keypoints at (default: the base,
+/// the child link of every movable joint, and the tip).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LoadOptions<'a> {
+    /// URDF base link.
+    pub base: Option<&'a str>,
+    /// URDF tip link.
+    pub tip: Option<&'a str>,
+    /// URDF links to put keypoints at (on the base → tip path), named after them.
+    pub keypoint_links: Option<&'a [&'a str]>,
+}
+
+/// [`load_robot_with`] with default keypoints.
 ///
 /// # Errors
-/// [`KinematicsError::UnknownRobot`], [`KinematicsError::File`], [`KinematicsError::Urdf`].
+/// As [`load_robot_with`].
 pub fn load_robot(
     spec: &str,
     base: Option<&str>,
     tip: Option<&str>,
 ) -> Result<Chain, KinematicsError> {
+    load_robot_with(spec, &LoadOptions { base, tip, keypoint_links: None })
+}
+
+/// Loads a robot from a built-in name (`arm7`, `ur5e`), a `.toml` screw table, or a `.urdf`
+/// file (with `base` and `tip` links; by default the URDF's root link and its single leaf).
+///
+/// # Errors
+/// [`KinematicsError::UnknownRobot`], [`KinematicsError::File`], [`KinematicsError::Urdf`];
+/// [`KinematicsError::BaseTipNotUrdf`] for URDF options given to another kind of robot.
+pub fn load_robot_with(spec: &str, options: &LoadOptions<'_>) -> Result<Chain, KinematicsError> {
+    let LoadOptions { base, tip, keypoint_links } = *options;
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if ext.as_deref() != Some("urdf") && (base.is_some() || tip.is_some()) {
+    if ext.as_deref() != Some("urdf")
+        && (base.is_some() || tip.is_some() || keypoint_links.is_some())
+    {
         return Err(KinematicsError::BaseTipNotUrdf(spec.to_string()));
     }
     let read = || {
@@ -137,7 +162,7 @@ pub fn load_robot(
                     return Err(KinematicsError::AmbiguousTip { leaves });
                 }
             };
-            crate::urdf::chain_from_urdf_str(&xml, base, tip, None)
+            crate::urdf::chain_from_urdf_str(&xml, base, tip, keypoint_links)
         }
         _ if !spec.contains('.') && !spec.contains('/') => crate::robots::builtin(spec),
         _ => Err(KinematicsError::UnknownRobot(spec.to_string())),

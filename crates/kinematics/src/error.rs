@@ -32,8 +32,9 @@ pub enum KinematicsError {
         /// The name.
         name: String,
     },
-    /// Base or tip links given for a robot that is not a URDF (they choose a chain within one).
-    #[error("robot '{0}': base and tip links apply to URDF robots only")]
+    /// Base, tip or keypoint links given for a robot that is not a URDF (they choose links
+    /// within one).
+    #[error("robot '{0}': base, tip and keypoint links apply to URDF robots only")]
     BaseTipNotUrdf(String),
     /// A URDF without a root link (every link is some joint's child): the base must be named.
     #[error("URDF: no root link; name the base link")]

@@ -14,7 +14,7 @@ mod symbolic_fk;
 mod urdf;
 
 pub use chain::{AXIS_TOLERANCE, Chain, ChainData, Joint, JointKind, Keypoint, Limits, Pose};
-pub use description::{chain_from_toml_str, load_robot};
+pub use description::{LoadOptions, chain_from_toml_str, load_robot, load_robot_with};
 pub use dynamics::{DynamicsPartials, DynamicsWorkspace, RigidBodyModel, STANDARD_GRAVITY};
 pub use error::KinematicsError;
 pub use fk::FkWorkspace;

@@ -136,9 +136,17 @@ pub fn chain_from_urdf_str(
     for w in &wanted {
         let (_, after, frame) = links.iter().find(|(n, _, _)| n == w).ok_or_else(|| {
             if robot.links.iter().any(|l| &l.name == w) {
-                err(format!("keypoint link '{w}' is not on the path {base} → {tip} (it is on another branch)"))
+                let names: Vec<&str> = links.iter().map(|(n, _, _)| n.as_str()).collect();
+                err(format!(
+                    "keypoint link '{w}' is not on the path {base} → {tip} (it is on another branch; the path's links: {})",
+                    names.join(", ")
+                ))
             } else {
-                err(format!("no link named '{w}' for a keypoint"))
+                let names: Vec<&str> = links.iter().map(|(n, _, _)| n.as_str()).collect();
+                err(format!(
+                    "no link named '{w}' for a keypoint (links on the path {base} → {tip}: {})",
+                    names.join(", ")
+                ))
             }
         })?;
         keypoints.push(Keypoint {
