@@ -1,0 +1,254 @@
+//! The suite's tasks, generated from a fixed seed: pick-and-place tasks of the seed's kind on
+//! arm7 (half with a ball between pick and place), on the UR5e loaded from URDF, and on the
+//! built-in UR5e with rigid-body dynamics; the seed and its collision variant; and a few
+//! infeasible tasks that must come back as such. Every feasible task is checked before it
+//! enters: each waypoint reachable within the joint limits under its orientation (the true
+//! rotation angle, by the verification's own FK), the start and waypoint configurations clear
+//! of the ball.
+
+use armature_arm::{ArmTask, Clearance, DynamicsModel, OrientationRange, Waypoint, fixtures};
+use armature_collision::{LinkSpec, ObstacleSpec, Scene, SphereSpec};
+use armature_ik::{IkSettings, IkWorkspace, Target, solve};
+use armature_lie::SO3;
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+use crate::verify::{Robot, angle_between, point_segment};
+
+/// The generator's seed.
+pub const SEED: u64 = 20_261_203;
+
+/// Ball obstacles: centre and radius.
+pub type Balls = Vec<(Vector3<f64>, f64)>;
+
+/// One task of the suite.
+#[derive(Debug, Clone)]
+pub struct SuiteTask {
+    /// Group (`seed`, `arm7`, `arm7-ball`, `ur5e-urdf`, `ur5e-rigid-body`, `infeasible`).
+    pub group: &'static str,
+    /// Name within the suite.
+    pub name: String,
+    /// The task.
+    pub task: ArmTask,
+    /// Which FK the verification uses.
+    pub robot: Robot,
+    /// Ball obstacles (centre, radius), for the verification.
+    pub balls: Balls,
+    /// Built to be infeasible, and why.
+    pub infeasible: Option<&'static str>,
+}
+
+fn lerp(rng: &mut Pcg64Mcg, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+fn wp(name: &str, node: usize, p: Vector3<f64>, q: Option<[f64; 4]>) -> Waypoint {
+    Waypoint { name: name.into(), node, position: p.into(), tolerance: 0.01, orientation: q }
+}
+
+/// IK of each waypoint (pose where an orientation is given), from the previous solution: the
+/// configurations, or `None` if one is out of reach within the limits, or its orientation
+/// is off by more than `max_angle` (true rotation angle by the verification's FK).
+fn reachable(task: &ArmTask, robot: Robot, max_angle: f64) -> Option<Vec<Vec<f64>>> {
+    let chain = &task.chain;
+    let mut ws = IkWorkspace::new(chain);
+    let settings = IkSettings { restarts: 8, ..IkSettings::default() };
+    let mut seed = task.start.clone().unwrap_or_else(|| vec![0.0; chain.dof()]);
+    let mut out = Vec::new();
+    for w in &task.waypoints {
+        let orientation = w.orientation.map(|q| SO3::from_quaternion_wxyz(q).expect("unit"));
+        let target = Target { position: Vector3::from(w.position), orientation };
+        let r = solve(chain, &target, &seed, &settings, &mut ws).ok()?;
+        let (rot, p) = robot.ee(&r.q);
+        if !r.converged || (p - Vector3::from(w.position)).norm() > 1e-3 {
+            return None;
+        }
+        if let Some(o) = orientation
+            && angle_between(&rot, &o.matrix()) > max_angle
+        {
+            return None;
+        }
+        seed = r.q.clone();
+        out.push(r.q);
+    }
+    Some(out)
+}
+
+/// The seed's capsules and a ball, as the task's clearance (2 mm kept).
+fn with_ball(task: &mut ArmTask, centre: Vector3<f64>, radius: f64) {
+    let link = |s: &str, e: &str, r| LinkSpec { start: s.into(), end: e.into(), radius: r };
+    let scene = Scene {
+        self_collision: true,
+        allowed: Vec::new(),
+        extra: Vec::new(),
+        links: vec![
+            link("base", "shoulder", 0.06),
+            link("shoulder", "elbow", 0.05),
+            link("elbow", "wrist", 0.04),
+            link("wrist", "ee", 0.035),
+        ],
+        obstacles: vec![ObstacleSpec {
+            name: "ball".into(),
+            sphere: Some(SphereSpec { center: centre.into(), radius }),
+            cuboid: None,
+            capsule: None,
+            halfspace: None,
+        }],
+    };
+    let model = scene.model(&task.chain).expect("the seed's capsules fit arm7");
+    task.collision = Some(Clearance { model, margin: 0.002, between_nodes_activation: Some(0.02) });
+    task.settings.max_iterations = 200;
+}
+
+/// The smallest clearance of the arm7 capsules from the ball over configurations `qs`.
+fn ball_clearance(qs: &[Vec<f64>], centre: &Vector3<f64>, radius: f64) -> f64 {
+    qs.iter()
+        .flat_map(|q| Robot::Arm7.capsules(q))
+        .map(|(a, b, r)| point_segment(centre, &a, &b) - r - radius)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// An arm7 pick-and-place like the seed's, at random picks, places and lifts.
+fn arm7_task(rng: &mut Pcg64Mcg, ball: bool) -> Option<(ArmTask, Balls)> {
+    let mut task = fixtures::pick_and_place();
+    let down = Some(fixtures::ARM7_DOWN);
+    let pick = Vector3::new(lerp(rng, 0.30, 0.50), lerp(rng, -0.35, -0.10), lerp(rng, 0.03, 0.08));
+    let place = Vector3::new(lerp(rng, 0.30, 0.50), lerp(rng, 0.10, 0.35), lerp(rng, 0.03, 0.08));
+    let lift = Vector3::new(0.0, 0.0, lerp(rng, 0.10, 0.20));
+    task.waypoints = vec![
+        wp("home", 0, Vector3::new(0.69, 0.0, 0.34), Some([1.0, 0.0, 0.0, 0.0])),
+        wp("pre_grasp", 2, pick + lift, down),
+        wp("grasp", 4, pick, down),
+        wp("lift", 6, pick + lift, down),
+        wp("pre_place", 8, place + lift, down),
+        wp("place", 10, place, down),
+    ];
+    let qs = reachable(&task, Robot::Arm7, 0.05f64.to_radians())?;
+    if !ball {
+        return Some((task, Vec::new()));
+    }
+    let mid = (pick + place) / 2.0 + lift;
+    let centre = Vector3::new(mid.x + lerp(rng, -0.05, 0.05), mid.y, mid.z - lerp(rng, 0.0, 0.06));
+    let radius = lerp(rng, 0.04, 0.06);
+    if ball_clearance(&qs, &centre, radius) < 0.02 {
+        return None;
+    }
+    with_ball(&mut task, centre, radius);
+    Some((task, vec![(centre, radius)]))
+}
+
+/// A UR5e pick-and-place like the rigid-body demo's, at random picks, places and lifts.
+fn ur5e_task(rng: &mut Pcg64Mcg, base: &ArmTask) -> Option<ArmTask> {
+    let mut task = base.clone();
+    let down = Some(fixtures::UR5E_DOWN);
+    let pick =
+        Vector3::new(lerp(rng, -0.55, -0.35), lerp(rng, -0.40, -0.15), lerp(rng, 0.05, 0.12));
+    let place = Vector3::new(lerp(rng, -0.55, -0.35), lerp(rng, 0.15, 0.40), lerp(rng, 0.05, 0.12));
+    let lift = Vector3::new(0.0, 0.0, lerp(rng, 0.10, 0.20));
+    let home = Vector3::from(base.waypoints[0].position);
+    task.waypoints = vec![
+        wp("home", 0, home, down),
+        wp("pick", 2, pick, down),
+        wp("lift", 4, pick + lift, down),
+        wp("place", 6, place, down),
+    ];
+    task.orientation = vec![OrientationRange {
+        name: "pick..place".into(),
+        quaternion_wxyz: fixtures::UR5E_DOWN,
+        tolerance_deg: 5.0,
+        first: 2,
+        last: 6,
+    }];
+    reachable(&task, Robot::Ur5e, 1.0f64.to_radians()).map(|_| task)
+}
+
+/// Every task of the suite, in a fixed order.
+pub fn suite() -> Vec<SuiteTask> {
+    let mut rng = Pcg64Mcg::seed_from_u64(SEED);
+    let mut out = Vec::new();
+    let entry = |group, name: String, task, robot, balls| SuiteTask {
+        group,
+        name,
+        task,
+        robot,
+        balls,
+        infeasible: None,
+    };
+    out.push(entry("seed", "seed".into(), fixtures::pick_and_place(), Robot::Arm7, vec![]));
+    out.push(entry(
+        "seed",
+        "seed-collision".into(),
+        fixtures::pick_and_place_collision(),
+        Robot::Arm7,
+        vec![(Vector3::new(0.35, 0.0, 0.25), 0.06)],
+    ));
+    for (group, ball, count) in [("arm7", false, 50), ("arm7-ball", true, 50)] {
+        let mut made = 0;
+        while made < count {
+            if let Some((task, balls)) = arm7_task(&mut rng, ball) {
+                out.push(entry(group, format!("{group}-{made:02}"), task, Robot::Arm7, balls));
+                made += 1;
+            }
+        }
+    }
+    let rigid = fixtures::ur5e_rigid_body();
+    let mut urdf = rigid.clone();
+    let xml = include_str!("../../../crates/kinematics/tests/fixtures/dynamics/ur5e.urdf");
+    urdf.chain = armature_kinematics::chain_from_urdf_str(xml, "base_link", "tool0", None)
+        .expect("the fixture URDF loads");
+    urdf.dynamics = DynamicsModel::DecoupledInertia(vec![2.0, 2.0, 1.0, 0.1, 0.1, 0.05]);
+    for (group, base) in [("ur5e-urdf", &urdf), ("ur5e-rigid-body", &rigid)] {
+        let mut made = 0;
+        while made < 20 {
+            if let Some(task) = ur5e_task(&mut rng, base) {
+                out.push(entry(group, format!("{group}-{made:02}"), task, Robot::Ur5e, vec![]));
+                made += 1;
+            }
+        }
+    }
+    out.extend(infeasible());
+    out
+}
+
+/// Tasks built to be infeasible.
+fn infeasible() -> Vec<SuiteTask> {
+    let mut start_in_ball = fixtures::pick_and_place();
+    let home = Vector3::new(0.69, 0.0, 0.34);
+    with_ball(&mut start_in_ball, home - Vector3::new(0.05, 0.0, 0.0), 0.05);
+    let mut out_of_reach = fixtures::pick_and_place();
+    out_of_reach.waypoints[5].position = [1.5, 0.25, 0.05];
+    let mut ur_out_of_reach = fixtures::ur5e_rigid_body();
+    ur_out_of_reach.waypoints[3].position = [-1.2, 0.3, 0.1];
+    let entry = |name: &str, task, robot, balls, why| SuiteTask {
+        group: "infeasible",
+        name: name.into(),
+        task,
+        robot,
+        balls,
+        infeasible: Some(why),
+    };
+    vec![
+        entry(
+            "start-inside-ball",
+            start_in_ball,
+            Robot::Arm7,
+            vec![(home - Vector3::new(0.05, 0.0, 0.0), 0.05)],
+            "the start configuration is inside the ball",
+        ),
+        entry(
+            "place-out-of-reach",
+            out_of_reach,
+            Robot::Arm7,
+            vec![],
+            "the place is 1.5 m out, beyond arm7's 0.7 m reach",
+        ),
+        entry(
+            "ur5e-place-out-of-reach",
+            ur_out_of_reach,
+            Robot::Ur5e,
+            vec![],
+            "the place is 1.24 m out, beyond the UR5e's reach",
+        ),
+    ]
+}
