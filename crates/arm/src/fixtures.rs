@@ -116,13 +116,14 @@ pub fn pick_and_place_collision() -> ArmTask {
     task
 }
 
-/// A pick-and-place on the UR5e with its rigid-body dynamics under gravity
-/// (`examples/ur5e-rigid-body.toml`): from UR's upright home pose (tool down) to a pick,
-/// a lift and a place, tool down within 5° from the pick to the place, the robot's own
-/// limits, free final time ≤ 6 s.
+/// A pick-and-place of a 3 kg part (5 cm out from the flange) on the UR5e with its
+/// rigid-body dynamics under gravity (`examples/ur5e-rigid-body.toml`): from UR's upright home
+/// pose (tool down) to a pick, a lift and a place, tool down within 5° from the pick to the
+/// place, the robot's own limits, free final time ≤ 6 s.
 pub fn ur5e_rigid_body() -> ArmTask {
     use std::f64::consts::FRAC_PI_2;
-    let chain = robots::ur5e();
+    let part = armature_kinematics::Inertial::point(3.0, [0.0, 0.0, 0.05]);
+    let chain = robots::ur5e().with_payload(&part).expect("a point mass is a payload");
     let limit = |f: &dyn Fn(&armature_kinematics::Limits) -> Option<f64>| -> Vec<f64> {
         chain.joints().iter().map(|j| f(&j.limits).expect("the built-in ur5e has limits")).collect()
     };

@@ -6,12 +6,14 @@ use std::path::Path;
 use armature_arm::{ArmError, ArmTask, Clearance, Initialization, TaskItem, TimeWindow};
 use armature_collision::{CollisionModel, Scene};
 use armature_ik::{IkTrajectory, Mode};
-use armature_kinematics::{Chain, KinematicsError, LoadOptions, Pose};
+use armature_kinematics::{Chain, Inertial, KinematicsError, LoadOptions, Pose};
 use armature_lie::SO3;
 use armature_scvx::{CompiledProblem, Problem, PtrSettings};
 
 use crate::robot_dynamics::dynamics_model;
-use crate::task::{Limit, LocatedError, OrientationValue, Source, TaskFile, resolve_robot};
+use crate::task::{
+    DynamicsKind, Limit, LocatedError, OrientationValue, Source, TaskFile, resolve_robot,
+};
 
 /// A waypoint as planned: where and when.
 pub type PlannedWaypoint = armature_arm::Waypoint;
@@ -156,15 +158,30 @@ fn robot_chain(
             _ => src.error(&robot.name, message),
         }
     })?;
-    match &robot.tool {
-        None => Ok(chain),
+    let chain = match &robot.tool {
+        None => chain,
         Some(t) => {
             let spec = t.get_ref();
             let pose = Pose {
                 position: spec.position,
                 quaternion_wxyz: spec.quaternion_wxyz.unwrap_or([1.0, 0.0, 0.0, 0.0]),
             };
-            chain.with_tool(&pose).map_err(|e| src.error(t, e.to_string()))
+            chain.with_tool(&pose).map_err(|e| src.error(t, e.to_string()))?
+        }
+    };
+    match &robot.payload {
+        None => Ok(chain),
+        Some(p) => {
+            if robot.dynamics.as_ref().map(|d| *d.get_ref()) != Some(DynamicsKind::RigidBody) {
+                return Err(src.error(p, "a payload applies to dynamics = \"rigid_body\" only"));
+            }
+            let spec = p.get_ref();
+            let payload = Inertial {
+                mass: spec.mass,
+                com: spec.com.unwrap_or([0.0; 3]),
+                inertia: spec.inertia.unwrap_or([0.0; 6]),
+            };
+            chain.with_payload(&payload).map_err(|e| src.error(p, e.to_string()))
         }
     }
 }

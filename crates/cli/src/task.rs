@@ -10,6 +10,7 @@
 //! # start = [0, -1.57, 1.57, -1.57, -1.57, 0]   # joint angles at the start (default: IK)
 //! # keypoints = ["base_link", "upper_arm_link", "forearm_link", "tool0"]  # URDF links
 //! # tool = { position = [0.0, 0.0, 0.12] }      # tool centre point in the tip frame
+//! # payload = { mass = 2.0, com = [0.0, 0.0, 0.05] }   # held by the tool (rigid_body)
 //! velocity_limit = 3.0           # one value or one per joint (default: the robot's)
 //! torque_limit = [8, 8, 4, 4, 2, 1, 0.5]
 //!
@@ -118,6 +119,11 @@ pub struct RobotSpec {
     #[serde(default)]
     #[schemars(with = "Option<ToolSpec>")]
     pub tool: Option<Spanned<ToolSpec>>,
+    /// A payload held by the end effector (rigid-body dynamics only): its mass properties in
+    /// the end-effector (tool) frame.
+    #[serde(default)]
+    #[schemars(with = "Option<PayloadSpec>")]
+    pub payload: Option<Spanned<PayloadSpec>>,
     /// Joint angles at the start (rad or m; default: IK of the first waypoint). The end
     /// effector must then be within the first waypoint's tolerance.
     #[serde(default)]
@@ -150,6 +156,21 @@ pub struct ToolSpec {
     /// Rotation `[w, x, y, z]` of the tool frame in the tip frame (default identity).
     #[serde(default, deserialize_with = "armature_kinematics::exact::optional")]
     pub quaternion_wxyz: Option<[f64; 4]>,
+}
+
+/// A payload's mass properties in the end-effector frame.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PayloadSpec {
+    /// Mass (kg).
+    pub mass: f64,
+    /// Centre of mass (m) in the end-effector frame. Default the frame's origin.
+    #[serde(default, deserialize_with = "armature_kinematics::exact::optional")]
+    pub com: Option<[f64; 3]>,
+    /// Rotational inertia about the centre of mass, `[ixx, ixy, ixz, iyy, iyz, izz]`
+    /// (kg·m²). Default zero (a point mass).
+    #[serde(default, deserialize_with = "armature_kinematics::exact::optional")]
+    pub inertia: Option<[f64; 6]>,
 }
 
 /// Which dynamics the robot obeys.

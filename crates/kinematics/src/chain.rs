@@ -448,6 +448,28 @@ impl Chain {
         Chain::new(&self.name, self.joints.clone(), home, keypoints)
     }
 
+    /// The same chain carrying a payload rigidly attached to the end effector: `payload` is
+    /// given in the end-effector frame and joins the mass properties of the last joint's
+    /// body (for the rigid-body dynamics).
+    ///
+    /// # Errors
+    /// [`KinematicsError::BadJoint`] for a payload that is not physical (see
+    /// [`Inertial::check`]); [`KinematicsError::WrongJointCount`] for a chain without joints.
+    pub fn with_payload(&self, payload: &Inertial) -> Result<Chain, KinematicsError> {
+        let mut joints = self.joints.clone();
+        let Some(last) = joints.last_mut() else {
+            return Err(KinematicsError::WrongJointCount { expected: 1, got: 0 });
+        };
+        payload.check().map_err(|reason| KinematicsError::BadJoint {
+            index: self.dof() - 1,
+            name: last.name.clone(),
+            reason: format!("payload: {reason}"),
+        })?;
+        let carried = payload.transformed(&self.home);
+        last.inertial = Some(last.inertial.unwrap_or(Inertial::ZERO).combined(&carried));
+        Chain::new(&self.name, joints, self.home, self.keypoints.clone())
+    }
+
     /// Lower and upper position limits as vectors (`±∞` where absent).
     pub fn position_limits(&self) -> (Vec<f64>, Vec<f64>) {
         (

@@ -372,3 +372,33 @@ fn the_built_in_ur5e_has_the_dynamics_of_its_urdf() {
         assert_close(&tb, &ta, 1e-9, "built-in ur5e against its URDF");
     }
 }
+
+#[test]
+fn a_payload_adds_its_weight_through_the_jacobian_transpose() {
+    // Holding still, the payload's extra torques are Jᵀ(−m g) at its centre of mass.
+    let arm = armature_kinematics::robots::ur5e();
+    let com = [0.02, -0.01, 0.05];
+    let loaded = arm.with_payload(&Inertial::point(3.0, com)).unwrap();
+    let g = [0.0, 0.0, -9.81];
+    let (a, b) = (RigidBodyModel::new(&arm, g).unwrap(), RigidBodyModel::new(&loaded, g).unwrap());
+    let q = [0.3, -1.1, 1.4, -0.9, -1.5, 0.7];
+    let (mut ta, mut tb) = ([0.0; 6], [0.0; 6]);
+    a.rnea(&mut a.workspace(), &q, &[0.0; 6], &[0.0; 6], &mut ta).unwrap();
+    b.rnea(&mut b.workspace(), &q, &[0.0; 6], &[0.0; 6], &mut tb).unwrap();
+    let mut ws = arm.fk_workspace();
+    arm.forward(&q, &mut ws).unwrap();
+    let (r, p) = ws.ee_matrix();
+    let c = r * nalgebra::Vector3::from(com) + p;
+    let mut jac = nalgebra::Matrix3xX::zeros(6);
+    ws.point_jacobian(6, &c, &mut jac).unwrap();
+    let expected = jac.transpose() * nalgebra::Vector3::new(0.0, 0.0, 3.0 * 9.81);
+    for j in 0..6 {
+        assert!(
+            (tb[j] - ta[j] - expected[j]).abs() < 1e-10,
+            "joint {j}: {} vs {}",
+            tb[j] - ta[j],
+            expected[j]
+        );
+    }
+    assert!(arm.with_payload(&Inertial::point(-1.0, com)).is_err());
+}
