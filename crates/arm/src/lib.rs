@@ -4,6 +4,7 @@
 mod check;
 mod dynamics;
 mod error;
+mod feasibility;
 pub mod fixtures;
 mod formulation;
 mod guess;

@@ -4,7 +4,7 @@ use armature_ik::IkTrajectory;
 use armature_scvx::{CompiledProblem, Problem, ProblemError, PtrSettings, Time};
 
 use crate::dynamics::Resolved;
-use crate::{ArmError, ArmTask, TaskItem, check, formulation, guess};
+use crate::{ArmError, ArmTask, TaskItem, check, feasibility, formulation, guess};
 
 /// An [`ArmTask`] as an SCvx [`Problem`], with its initial guess.
 #[derive(Debug, Clone)]
@@ -29,12 +29,18 @@ pub fn waypoint_parameter(name: &str) -> String {
 impl ArmTask {
     /// Checks the task and builds the problem and its guess.
     ///
+    /// Before the problem is built, what would make it infeasible is named: a waypoint out of
+    /// reach within the joint limits (alone, or under the orientation range that holds at its
+    /// node), a start configuration in collision.
+    ///
     /// # Errors
     /// An [`ArmError`] naming the part of the task at fault ([`TaskItem`]).
     pub fn plan(&self) -> Result<ArmPlan, ArmError> {
         check::check(self)?;
         let dynamics = Resolved::new(&self.dynamics, &self.chain)?;
         let guess = guess::initial_guess(self, &dynamics)?;
+        feasibility::start_clear(self, &guess.ik.q[0])?;
+        feasibility::waypoints_reachable(self, &guess.ik)?;
         let mut problem = formulation::states_and_dynamics(self, &dynamics, &guess);
         problem.time = Time::Free {
             min: self.time.min,

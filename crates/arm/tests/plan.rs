@@ -93,3 +93,45 @@ fn rigid_body_dynamics_is_the_aba_of_the_chain() {
     assert_eq!(out, direct);
     drop(compiled);
 }
+
+#[test]
+fn infeasible_tasks_are_named_before_solving() {
+    // A place 1.5 m out, beyond arm7's reach.
+    let mut task = fixtures::pick_and_place();
+    task.waypoints[5].position = [1.5, 0.25, 0.05];
+    let e = task.plan().unwrap_err();
+    assert_eq!(e.item, TaskItem::Waypoint(5));
+    assert!(
+        e.message.contains("'place' is out of reach") && e.message.contains("0.8"),
+        "{}",
+        e.message
+    );
+    // A ball where the arm starts.
+    let mut task = fixtures::pick_and_place_collision();
+    let c = task.collision.as_mut().unwrap();
+    let scene = armature_collision::Scene {
+        self_collision: true,
+        allowed: vec![],
+        extra: vec![],
+        links: vec![armature_collision::LinkSpec {
+            start: "wrist".into(),
+            end: "ee".into(),
+            radius: 0.035,
+        }],
+        obstacles: vec![armature_collision::ObstacleSpec {
+            name: "ball".into(),
+            sphere: Some(armature_collision::SphereSpec {
+                center: [0.64, 0.0, 0.34],
+                radius: 0.05,
+            }),
+            cuboid: None,
+            capsule: None,
+            halfspace: None,
+        }],
+    };
+    c.model = scene.model(&task.chain).unwrap();
+    let e = task.plan().unwrap_err();
+    assert_eq!(e.item, TaskItem::Start);
+    assert!(e.message.contains("wrist-ee and ball overlap"), "{}", e.message);
+    // The fixtures themselves pass these checks (they plan: see above).
+}

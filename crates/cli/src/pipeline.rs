@@ -204,7 +204,7 @@ fn locate(task: &TaskFile, src: Source<'_>, e: &ArmError) -> LocatedError {
         TaskItem::TorqueLimit => robot.torque_limit.as_ref().map_or(name_at, |l| l.span().start),
         TaskItem::Start => robot.start.as_ref().map_or(name_at, |s| s.span().start),
         TaskItem::Time => task.time.max.span().start,
-        TaskItem::Waypoint(i) => task.waypoints.get(i).map_or(0, |w| w.name.span().start),
+        TaskItem::Waypoint(i) => task.waypoints.get(i).map_or(0, |w| w.position.span().start),
         TaskItem::Orientation(i) => {
             task.orientation.get(i).map_or(0, |o| o.quaternion_wxyz.span().start)
         }
