@@ -6,8 +6,7 @@
 //! rotation angle, by the verification's own FK), the start and waypoint configurations clear
 //! of the ball.
 
-use armature_arm::{ArmTask, Clearance, DynamicsModel, OrientationRange, Waypoint, fixtures};
-use armature_collision::{LinkSpec, ObstacleSpec, Scene, SphereSpec};
+use armature_arm::{ArmTask, DynamicsModel, OrientationRange, Waypoint, fixtures};
 use armature_ik::{IkSettings, IkWorkspace, Target, solve};
 use armature_lie::SO3;
 use nalgebra::Vector3;
@@ -77,28 +76,7 @@ fn reachable(task: &ArmTask, robot: Robot, max_angle: f64) -> Option<Vec<Vec<f64
 
 /// The seed's capsules and a ball, as the task's clearance (2 mm kept).
 fn with_ball(task: &mut ArmTask, centre: Vector3<f64>, radius: f64) {
-    let link = |s: &str, e: &str, r| LinkSpec { start: s.into(), end: e.into(), radius: r };
-    let scene = Scene {
-        self_collision: true,
-        allowed: Vec::new(),
-        extra: Vec::new(),
-        links: vec![
-            link("base", "shoulder", 0.06),
-            link("shoulder", "elbow", 0.05),
-            link("elbow", "wrist", 0.04),
-            link("wrist", "ee", 0.035),
-        ],
-        obstacles: vec![ObstacleSpec {
-            name: "ball".into(),
-            sphere: Some(SphereSpec { center: centre.into(), radius }),
-            cuboid: None,
-            capsule: None,
-            halfspace: None,
-        }],
-    };
-    let model = scene.model(&task.chain).expect("the seed's capsules fit arm7");
-    task.collision = Some(Clearance { model, margin: 0.002, between_nodes_activation: Some(0.02) });
-    task.settings.max_iterations = 200;
+    fixtures::with_seed_ball(task, centre.into(), radius);
 }
 
 /// The smallest clearance of the arm7 capsules from the ball over configurations `qs`.

@@ -90,6 +90,17 @@ pub fn pick_and_place() -> ArmTask {
 /// (0.35, 0, 0.25), 2 mm of clearance kept (`examples/pick-and-place-collision.toml`).
 pub fn pick_and_place_collision() -> ArmTask {
     let mut task = pick_and_place();
+    with_seed_ball(&mut task, [0.35, 0.0, 0.25], 0.06);
+    task
+}
+
+/// Gives an arm7 task the seed's collision model with a ball at `centre` of `radius`: the
+/// capsules of [`pick_and_place_collision`], non-adjacent self-collision, 2 mm of clearance
+/// kept (also between the nodes, active within 2 cm), and 200 iterations at most.
+///
+/// # Panics
+/// If the task's robot lacks arm7's keypoints (base, shoulder, elbow, wrist, ee).
+pub fn with_seed_ball(task: &mut ArmTask, centre: [f64; 3], radius: f64) {
     let link =
         |start: &str, end: &str, radius| LinkSpec { start: start.into(), end: end.into(), radius };
     let scene = Scene {
@@ -104,7 +115,7 @@ pub fn pick_and_place_collision() -> ArmTask {
         ],
         obstacles: vec![ObstacleSpec {
             name: "ball".into(),
-            sphere: Some(SphereSpec { center: [0.35, 0.0, 0.25], radius: 0.06 }),
+            sphere: Some(SphereSpec { center: centre, radius }),
             cuboid: None,
             capsule: None,
             halfspace: None,
@@ -113,7 +124,6 @@ pub fn pick_and_place_collision() -> ArmTask {
     let model = scene.model(&task.chain).expect("the seed's capsules fit arm7");
     task.collision = Some(Clearance { model, margin: 0.002, between_nodes_activation: Some(0.02) });
     task.settings.max_iterations = 200;
-    task
 }
 
 /// A pick-and-place of a 3 kg part (5 cm out from the flange) on the UR5e with its

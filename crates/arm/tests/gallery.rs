@@ -1,0 +1,16 @@
+//! The examples, end to end: each asserts what it shows, so running its `main` is its test.
+
+#[path = "../examples/custom_task.rs"]
+mod custom_task;
+#[path = "../examples/infeasible.rs"]
+mod infeasible;
+
+#[test]
+fn a_task_written_in_rust_plans_solves_and_reads_back_by_name() {
+    custom_task::main();
+}
+
+#[test]
+fn an_infeasible_task_names_its_fault() {
+    infeasible::main();
+}
