@@ -1,7 +1,7 @@
 //! The suite's tasks, generated from a fixed seed: pick-and-place tasks of the seed's kind on
-//! arm7 (half with a ball between pick and place), on the UR5e loaded from URDF, and on the
-//! built-in UR5e with rigid-body dynamics; the seed and its collision variant; and a few
-//! infeasible tasks that must come back as such. Every feasible task is checked before it
+//! arm7 (half with a ball between pick and place), on the UR5e loaded from URDF, on the
+//! built-in UR5e with rigid-body dynamics and on a KUKA LBR iiwa 7 from its DH table; the
+//! seed and its collision variant; and a few infeasible tasks that must come back as such. Every feasible task is checked before it
 //! enters: each waypoint reachable within the joint limits under its orientation (the true
 //! rotation angle, by the verification's own FK), the start and waypoint configurations clear
 //! of the ball.
@@ -24,7 +24,8 @@ pub type Balls = Vec<(Vector3<f64>, f64)>;
 /// One task of the suite.
 #[derive(Debug, Clone)]
 pub struct SuiteTask {
-    /// Group (`seed`, `arm7`, `arm7-ball`, `ur5e-urdf`, `ur5e-rigid-body`, `infeasible`).
+    /// Group (`seed`, `arm7`, `arm7-ball`, `ur5e-urdf`, `ur5e-rigid-body`, `iiwa7`,
+    /// `infeasible`).
     pub group: &'static str,
     /// Name within the suite.
     pub name: String,
@@ -141,6 +142,62 @@ fn ur5e_task(rng: &mut Pcg64Mcg, base: &ArmTask) -> Option<ArmTask> {
     reachable(&task, Robot::Ur5e, 1.0f64.to_radians()).map(|_| task)
 }
 
+/// The KUKA LBR iiwa 7 R800 from its DH table ([`crate::verify::IIWA7_DH`]) and KUKA's
+/// published limits: ±[170, 120, 170, 120, 170, 120, 175]°,
+/// [98, 98, 100, 130, 140, 180, 180]°/s, [176, 176, 110, 110, 110, 40, 40] N·m.
+pub fn iiwa7() -> armature_kinematics::Chain {
+    use armature_kinematics::{JointKind, Limits, robots::DhRow};
+    const NAMES: [&str; 7] = ["a1", "a2", "a3", "a4", "a5", "a6", "a7"];
+    let qmax = [170.0f64, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0];
+    let vmax = [98.0f64, 98.0, 100.0, 130.0, 140.0, 180.0, 180.0];
+    let tmax = [176.0, 176.0, 110.0, 110.0, 110.0, 40.0, 40.0];
+    let rows: Vec<DhRow> = (0..7)
+        .map(|i| {
+            let (d, a, alpha) = crate::verify::IIWA7_DH[i];
+            DhRow {
+                name: NAMES[i],
+                kind: JointKind::Revolute,
+                d,
+                theta_offset: 0.0,
+                a,
+                alpha,
+                limits: Limits::symmetric(qmax[i].to_radians(), vmax[i].to_radians(), tmax[i]),
+            }
+        })
+        .collect();
+    let keypoints = [("base", 0), ("shoulder", 2), ("elbow", 4), ("wrist", 6), ("ee", 7)];
+    armature_kinematics::robots::from_dh("iiwa7", &rows, &keypoints)
+        .expect("the iiwa table is valid")
+}
+
+/// Tool down for the iiwa (its flange points up at q = 0): Ry(180°).
+const IIWA_DOWN: [f64; 4] = [0.0, 0.0, 1.0, 0.0];
+
+/// An iiwa pick-and-place: from above the table in front of it to a pick, a lift and a
+/// place, tool down within 5° from the pick to the place, decoupled dynamics.
+fn iiwa_task(rng: &mut Pcg64Mcg) -> Option<ArmTask> {
+    let mut task = fixtures::ur5e_rigid_body();
+    task.chain = iiwa7();
+    let limit = |f: &dyn Fn(&armature_kinematics::Limits) -> Option<f64>| -> Vec<f64> {
+        task.chain.joints().iter().map(|j| f(&j.limits).expect("limits")).collect()
+    };
+    (task.velocity_limit, task.torque_limit) = (limit(&|l| l.velocity), limit(&|l| l.effort));
+    task.dynamics = DynamicsModel::DecoupledInertia(vec![1.0, 1.0, 0.6, 0.6, 0.3, 0.1, 0.05]);
+    task.start = None;
+    let down = Some(IIWA_DOWN);
+    let pick = Vector3::new(lerp(rng, 0.45, 0.65), lerp(rng, -0.35, -0.15), lerp(rng, 0.05, 0.12));
+    let place = Vector3::new(lerp(rng, 0.45, 0.65), lerp(rng, 0.15, 0.35), lerp(rng, 0.05, 0.12));
+    let lift = Vector3::new(0.0, 0.0, lerp(rng, 0.10, 0.20));
+    task.waypoints = vec![
+        wp("home", 0, Vector3::new(0.5, 0.0, 0.5), down),
+        wp("pick", 2, pick, down),
+        wp("lift", 4, pick + lift, down),
+        wp("place", 6, place, down),
+    ];
+    task.orientation[0].quaternion_wxyz = IIWA_DOWN;
+    reachable(&task, Robot::Iiwa7, 1.0f64.to_radians()).map(|_| task)
+}
+
 /// Every task of the suite, in a fixed order.
 pub fn suite() -> Vec<SuiteTask> {
     let mut rng = Pcg64Mcg::seed_from_u64(SEED);
@@ -183,6 +240,13 @@ pub fn suite() -> Vec<SuiteTask> {
                 out.push(entry(group, format!("{group}-{made:02}"), task, Robot::Ur5e, vec![]));
                 made += 1;
             }
+        }
+    }
+    let mut made = 0;
+    while made < 20 {
+        if let Some(task) = iiwa_task(&mut rng) {
+            out.push(entry("iiwa7", format!("iiwa7-{made:02}"), task, Robot::Iiwa7, vec![]));
+            made += 1;
         }
     }
     out.extend(infeasible());

@@ -185,5 +185,6 @@ pub fn robot_name(r: Robot) -> &'static str {
     match r {
         Robot::Arm7 => "arm7",
         Robot::Ur5e => "ur5e",
+        Robot::Iiwa7 => "iiwa7",
     }
 }

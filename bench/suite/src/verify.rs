@@ -22,6 +22,44 @@ pub enum Robot {
     Arm7,
     /// The UR5e (standard DH).
     Ur5e,
+    /// The KUKA LBR iiwa 7 R800 (standard DH).
+    Iiwa7,
+}
+
+/// A standard DH table: `(d, a, α)` per joint.
+type Dh = [(f64, f64, f64)];
+
+/// The UR5e's published DH table.
+const UR5E_DH: [(f64, f64, f64); 6] = [
+    (0.1625, 0.0, std::f64::consts::FRAC_PI_2),
+    (0.0, -0.425, 0.0),
+    (0.0, -0.3922, 0.0),
+    (0.1333, 0.0, std::f64::consts::FRAC_PI_2),
+    (0.0997, 0.0, -std::f64::consts::FRAC_PI_2),
+    (0.0996, 0.0, 0.0),
+];
+
+/// The LBR iiwa 7 R800's DH table (KUKA's link lengths 0.34, 0.4, 0.4, 0.126 m).
+pub const IIWA7_DH: [(f64, f64, f64); 7] = [
+    (0.34, 0.0, -std::f64::consts::FRAC_PI_2),
+    (0.0, 0.0, std::f64::consts::FRAC_PI_2),
+    (0.4, 0.0, std::f64::consts::FRAC_PI_2),
+    (0.0, 0.0, -std::f64::consts::FRAC_PI_2),
+    (0.4, 0.0, -std::f64::consts::FRAC_PI_2),
+    (0.0, 0.0, std::f64::consts::FRAC_PI_2),
+    (0.126, 0.0, 0.0),
+];
+
+/// The frames 0…n of a standard DH chain: `Tᵢ = Tᵢ₋₁·Rz(qᵢ)·Tz(d)·Tx(a)·Rx(α)`.
+fn dh_frames(table: &Dh, q: &[f64]) -> Vec<Frame> {
+    let mut f: Frame = (Matrix3::identity(), Vector3::zeros());
+    let mut out = vec![f];
+    for (&(d, a, alpha), &qi) in table.iter().zip(q) {
+        let turned = then(&f, rz(qi), Vector3::new(a, 0.0, d));
+        f = (turned.0 * rx(alpha), turned.1);
+        out.push(f);
+    }
+    out
 }
 
 /// A pose (rotation, position).
@@ -45,7 +83,7 @@ fn then(f: &Frame, rot: Matrix3<f64>, trans: Vector3<f64>) -> Frame {
 
 impl Robot {
     /// The frames along the arm: the arm7 keypoints (base, shoulder, elbow, wrist, ee) or the
-    /// UR5e DH frames 0…6; the last is the end effector.
+    /// DH frames 0…n of the others; the last is the end effector.
     pub fn frames(self, q: &[f64]) -> Vec<Frame> {
         let mut f: Frame = (Matrix3::identity(), Vector3::zeros());
         let mut out = vec![f];
@@ -64,18 +102,8 @@ impl Robot {
                 f = then(&f, rz(q[6]), Vector3::zeros());
                 out.push(f);
             }
-            Robot::Ur5e => {
-                use std::f64::consts::FRAC_PI_2;
-                let d = [0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996];
-                let a = [0.0, -0.425, -0.3922, 0.0, 0.0, 0.0];
-                let alpha = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 0.0];
-                for i in 0..6 {
-                    // Rz(θ)·Tz(d)·Tx(a)·Rx(α)
-                    let turned = then(&f, rz(q[i]), Vector3::new(a[i], 0.0, d[i]));
-                    f = (turned.0 * rx(alpha[i]), turned.1);
-                    out.push(f);
-                }
-            }
+            Robot::Ur5e => return dh_frames(&UR5E_DH, q),
+            Robot::Iiwa7 => return dh_frames(&IIWA7_DH, q),
         }
         out
     }
@@ -95,7 +123,7 @@ impl Robot {
                 .enumerate()
                 .map(|(i, &r)| (f[i].1, f[i + 1].1, r))
                 .collect(),
-            Robot::Ur5e => Vec::new(),
+            Robot::Ur5e | Robot::Iiwa7 => Vec::new(),
         }
     }
 }

@@ -10,7 +10,11 @@ use rand::{Rng, SeedableRng};
 #[test]
 fn the_verification_fk_agrees_with_the_chains() {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
-    for (robot, chain) in [(Robot::Arm7, robots::arm7()), (Robot::Ur5e, robots::ur5e())] {
+    for (robot, chain) in [
+        (Robot::Arm7, robots::arm7()),
+        (Robot::Ur5e, robots::ur5e()),
+        (Robot::Iiwa7, armature_suite::generate::iiwa7()),
+    ] {
         let mut ws = chain.fk_workspace();
         for _ in 0..50 {
             let q: Vec<f64> = (0..chain.dof()).map(|_| rng.random_range(-3.0..3.0)).collect();
@@ -40,7 +44,7 @@ fn the_generator_is_deterministic_and_complete() {
     let a = suite();
     let count = |g: &str| a.iter().filter(|t| t.group == g).count();
     assert_eq!((count("arm7"), count("arm7-ball")), (50, 50));
-    assert!(count("ur5e-urdf") >= 20 && count("ur5e-rigid-body") >= 20);
+    assert!(count("ur5e-urdf") >= 20 && count("ur5e-rigid-body") >= 20 && count("iiwa7") >= 20);
     assert!(count("infeasible") >= 3 && count("seed") == 2);
     // Every ball task has a ball, every task plans.
     for t in &a {
