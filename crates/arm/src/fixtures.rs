@@ -148,9 +148,11 @@ pub fn ur5e_rigid_body() -> ArmTask {
         ],
         2,
     );
+    let dynamics = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] };
     ArmTask {
         chain,
-        dynamics: DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] },
+        settings: dynamics.default_settings(),
+        dynamics,
         velocity_limit,
         torque_limit,
         velocity_limit_peaks: false,
@@ -162,6 +164,5 @@ pub fn ur5e_rigid_body() -> ArmTask {
         table_height: Some(0.0),
         collision: None,
         initialization: Initialization::default(),
-        settings: PtrSettings::default(),
     }
 }

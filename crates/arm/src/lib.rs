@@ -14,5 +14,6 @@ mod task;
 pub use error::{ArmError, TaskItem};
 pub use plan::{ArmPlan, waypoint_parameter};
 pub use task::{
-    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, TimeWindow, Waypoint,
+    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RIGID_BODY_SUBSTEPS,
+    TimeWindow, Waypoint,
 };

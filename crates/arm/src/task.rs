@@ -20,6 +20,33 @@ pub enum DynamicsModel {
     },
 }
 
+/// RK4 steps per segment for [`DynamicsModel::RigidBody`] by default. The decoupled model is
+/// linear, so RK4 integrates it exactly at any step count; the coupled arm is not: on the
+/// suite's UR5e tasks at the generic 10 steps the trajectory re-integrated at 1 ms ends with
+/// joints still moving at 1–6e-3 rad/s where the task asks for rest, at 30 within 1e-4
+/// (BENCHMARKS.md).
+pub const RIGID_BODY_SUBSTEPS: usize = 30;
+
+impl DynamicsModel {
+    /// The solver settings a task with this model starts from: the defaults, with
+    /// [`RIGID_BODY_SUBSTEPS`] integration steps per segment for the rigid-body model.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::{DynamicsModel, RIGID_BODY_SUBSTEPS};
+    ///
+    /// let rigid = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_settings();
+    /// assert_eq!(rigid.discretization.substeps, RIGID_BODY_SUBSTEPS);
+    /// ```
+    pub fn default_settings(&self) -> PtrSettings {
+        let mut settings = PtrSettings::default();
+        if let DynamicsModel::RigidBody { .. } = self {
+            settings.discretization.substeps = RIGID_BODY_SUBSTEPS;
+        }
+        settings
+    }
+}
+
 /// A waypoint: the end effector passes within `tolerance` of `position` at node `node`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Waypoint {
@@ -128,4 +155,30 @@ pub struct ArmTask {
     pub initialization: Initialization,
     /// Solver settings.
     pub settings: PtrSettings,
+}
+
+impl ArmTask {
+    /// The same task on a grid `factor` times finer: every segment between two nodes split
+    /// into `factor` (nodes `(N − 1)·factor + 1`), the waypoints and orientation ranges on
+    /// the same instants (node `k` becomes node `k·factor`).
+    ///
+    /// # Example
+    /// ```
+    /// let seed = armature_arm::fixtures::pick_and_place();
+    /// let fine = seed.subdivided(2);
+    /// assert_eq!(fine.nodes, 2 * (seed.nodes - 1) + 1);
+    /// assert_eq!(fine.waypoints[1].node, 2 * seed.waypoints[1].node);
+    /// ```
+    pub fn subdivided(&self, factor: usize) -> ArmTask {
+        let factor = factor.max(1);
+        let mut t = self.clone();
+        t.nodes = (self.nodes.max(1) - 1) * factor + 1;
+        for w in &mut t.waypoints {
+            w.node *= factor;
+        }
+        for o in &mut t.orientation {
+            (o.first, o.last) = (o.first * factor, o.last * factor);
+        }
+        t
+    }
 }

@@ -82,7 +82,10 @@ pub fn arm_task(
         h => h.as_ref().map(|h| *h.get_ref()),
     };
     let collision = collision(task, &chain, src)?;
-    let settings = crate::settings::checked(&task.settings, src)?;
+    let mut settings = crate::settings::checked(&task.settings, src)?;
+    if !crate::settings::has_key(src.text, &["settings", "discretization", "substeps"]) {
+        settings.discretization.substeps = dynamics.default_settings().discretization.substeps;
+    }
     let arm_task = ArmTask {
         chain,
         dynamics,

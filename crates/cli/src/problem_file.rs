@@ -418,6 +418,7 @@ pub fn build(file: &ProblemFile, src: Source<'_>) -> Result<(Problem, PtrSetting
             eps: 1e-6,
             group: 0,
         }),
+        interval_bounds_sampling: armature_scvx::Sampling::Peak,
         dilation: None,
     };
     Ok((problem, settings))
@@ -629,8 +630,14 @@ fn between(
     let us: Vec<Expr> = controls.iter().map(Control::expr).collect();
     let function = armature_symbolic::Function::compile(&[k.function().clone()], &[&xs, &us])
         .map_err(|e| src.error(&c.expr, e.to_string()))?;
-    let checked =
-        IntervalConstraint { name: k.name().to_string(), function, first, last, activation: None };
+    let checked = IntervalConstraint {
+        name: k.name().to_string(),
+        function,
+        first,
+        last,
+        activation: None,
+        sampling: armature_scvx::Sampling::Peak,
+    };
     if checked.reads_controls(states.iter().map(State::size).sum()) {
         return Err(src.error(
             &c.expr,
@@ -646,6 +653,7 @@ fn between(
         first,
         last,
         activation: c.activation,
+        sampling: armature_scvx::Sampling::Peak,
     })
 }
 

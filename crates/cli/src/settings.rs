@@ -44,12 +44,39 @@ pub fn key_span(text: &str, path: &[&str]) -> Option<Range<usize>> {
     found
 }
 
+/// Whether the document has a value at `path` (keys from the root).
+pub fn has_key(text: &str, path: &[&str]) -> bool {
+    let Ok(root) = DeTable::parse(text) else { return false };
+    let mut table: &DeTable<'_> = root.get_ref();
+    for (i, key) in path.iter().enumerate() {
+        let Some((_, value)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == *key) else {
+            return false;
+        };
+        match value.get_ref() {
+            _ if i + 1 == path.len() => return true,
+            DeValue::Table(t) => table = t,
+            _ => return false,
+        }
+    }
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     const TEXT: &str = "[robot]\nname = \"arm7\"\n\n[settings]\nlam_tr = 2.0\n\n\
                         [settings.subproblem.clarabel]\nmax_iterations = 0\n";
+
+    #[test]
+    fn a_key_is_there_or_not() {
+        assert!(has_key(TEXT, &["settings", "subproblem", "clarabel", "max_iterations"]));
+        assert!(has_key(TEXT, &["settings", "lam_tr"]));
+        assert!(!has_key(TEXT, &["settings", "subproblem", "clarabel", "tolerance"]));
+        assert!(!has_key(TEXT, &["settings", "lam_tr", "deeper"]));
+        assert!(!has_key(TEXT, &["settings", "discretization", "substeps"]));
+        assert!(!has_key("not = toml = at all", &["settings"]));
+    }
 
     #[test]
     fn a_key_is_found_at_its_value() {

@@ -26,6 +26,7 @@ fn problem(peaks: bool) -> Problem {
             first: 0,
             last: NODES - 1,
             activation: None,
+            sampling: armature_scvx::Sampling::Peak,
         }]
     } else {
         vec![]

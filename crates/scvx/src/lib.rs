@@ -26,8 +26,8 @@ pub use ipm::IpmSettings;
 pub use problem::CompiledProblem;
 pub use ptr::{
     ClarabelSettings, Increment, IntervalConstraint, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
-    PtrSettings, SettingsError, SubproblemDimensions, SubproblemSettings, SubproblemSolver,
-    TrustRegionUpdate,
+    PtrSettings, Sampling, SettingsError, SubproblemDimensions, SubproblemSettings,
+    SubproblemSolver, TrustRegionUpdate,
 };
 
 // Results: statuses, records, violations, solutions and errors.

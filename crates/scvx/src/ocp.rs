@@ -48,6 +48,8 @@ pub struct Ocp {
     /// integrand has no gradient there), so a subproblem pushes through it and the merit
     /// rejects the step; a peak row shows the subproblem the bound with a full gradient.
     pub interval_bounds: Vec<usize>,
+    /// Where those rows sit on each segment: at the peak, or at every grid point.
+    pub interval_bounds_sampling: Sampling,
     /// Nonlinear state constraints `g(x(t)) ≤ 0` enforced between the nodes the same way:
     /// per segment and output, one buffered row at the output's peak on the integration
     /// grid (see [`IntervalConstraint`]).
@@ -70,7 +72,8 @@ pub struct Increment {
 }
 
 /// A constraint `g(x(t)) ≤ 0` (entrywise) on the states between the nodes of segments
-/// `first..last`, enforced at each segment's peak of each output.
+/// `first..last`, enforced at each segment's peak of each output, or at every point of the
+/// integration grid ([`Sampling`]).
 ///
 /// # Math
 /// On segment k, `g_o` is evaluated at the integration grid's points `t_j`; its largest value,
@@ -113,6 +116,28 @@ pub struct IntervalConstraint {
     /// slack in every subproblem, so dropping them does not change the steps. For
     /// clearances, a few centimetres (the seed's collision variant: 2 cm, same iterates).
     pub activation: Option<f64>,
+    /// Where the rows sit on each segment: at the peak of each output, or at every point of
+    /// the integration grid.
+    pub sampling: Sampling,
+}
+
+/// Where an interval constraint's rows sit between the nodes.
+///
+/// A peak row moves with the trajectory: where `g` rides its bound over a stretch of the
+/// segment (an orientation held within a narrow range, say), the peak hops between grid
+/// points from one iteration to the next and its gradient with it, and the steps zig-zag.
+/// A row at each grid point is smooth (each has its own fixed time), at the price of one row
+/// per point and output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sampling {
+    /// One row per segment and output, at the output's largest value on the segment's grid
+    /// (refined by a parabola).
+    #[default]
+    Peak,
+    /// One row per output at every point of the integration grid of each segment (its
+    /// nodes included): `∇g_o(x(t_j))·∂x(t_j)/∂z · Δz − ν_b ≤ −g_o(x(t_j))`.
+    GridPoints,
 }
 
 impl IntervalConstraint {

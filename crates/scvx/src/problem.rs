@@ -150,6 +150,7 @@ pub struct Ball {
 ///         first: 0,
 ///         last: 5,
 ///         activation: None,
+///         sampling: armature_scvx::Sampling::Peak,
 ///     }],
 ///     states: vec![p, v],
 ///     controls: vec![a],
@@ -176,6 +177,8 @@ pub struct BetweenNodes {
     /// while all its peaks lie further than this below the bound (see
     /// [`IntervalConstraint::activation`]); `None` keeps every row.
     pub activation: Option<f64>,
+    /// Rows at each segment's peak or at every grid point (see [`crate::Sampling`]).
+    pub sampling: crate::Sampling,
 }
 
 /// A trajectory optimization problem by name. Build with struct-update syntax from
@@ -203,6 +206,10 @@ pub struct Problem {
     /// Also enforce the state bounds between nodes (a CTCS group) with these options.
     /// Default `Some(ReLU, ε = 1e-6)`; `None` keeps them nodal only.
     pub state_bounds_ctcs: Option<CtcsOptions>,
+    /// Where the bounds of states [`with_interval_bounds`](State::with_interval_bounds) are
+    /// held between the nodes: at each segment's peak (the default) or at every grid point
+    /// (see [`crate::Sampling`]).
+    pub interval_bounds_sampling: crate::Sampling,
     /// Bounds of the per-segment dilation `s` (segment duration `s/(N − 1)`); `None`:
     /// `[T_max/40, 5·T_max]`.
     pub dilation: Option<(f64, f64)>,
@@ -222,6 +229,7 @@ impl Problem {
             between_nodes: Vec::new(),
             outputs: Vec::new(),
             state_bounds_ctcs: Some(CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 }),
+            interval_bounds_sampling: crate::Sampling::Peak,
             dilation: None,
         }
     }

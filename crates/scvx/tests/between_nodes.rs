@@ -51,6 +51,7 @@ fn problem_with(between_nodes: bool, activation: Option<f64>) -> Problem {
                 first: 0,
                 last: NODES - 1,
                 activation,
+                sampling: armature_scvx::Sampling::Peak,
             }]
         } else {
             Vec::new()
@@ -93,6 +94,27 @@ fn peak_rows_keep_the_path_out_of_the_disc_between_the_nodes() {
         .find(|v| v.constraint == "outside the disc between nodes")
         .expect("reported");
     assert!(v.value <= 1e-6 && v.node.is_some(), "{v:?}");
+}
+
+#[test]
+fn grid_point_rows_keep_the_path_out_of_the_disc_too() {
+    let mut problem = problem(true);
+    problem.between_nodes[0].sampling = armature_scvx::Sampling::GridPoints;
+    let mut compiled = problem.compile(PtrSettings::default()).unwrap();
+    // One row per grid point of the 5 segments (11 points each, a node shared by two
+    // segments counted once) against one per segment; each with its buffer's `ν ≥ 0` row.
+    let rows = |c: &mut armature_scvx::CompiledProblem| c.ptr().dimensions().inequality_rows;
+    let peak_rows = rows(&mut problem_with(true, None).compile(PtrSettings::default()).unwrap());
+    assert_eq!(rows(&mut compiled), peak_rows + 2 * (5 * 10 + 1 - 5));
+    let s = compiled.solve().unwrap();
+    assert_eq!(s.status, armature_scvx::PtrStatus::Converged, "{:?}", s.max_violation);
+    let d = depth(&s, CENTRE);
+    assert!(d <= 1e-5, "deepest penetration {d}");
+    // The optimum: with the acceleration bounded per axis, the path can bend around the disc
+    // in y while x runs its bang-bang profile, so the unobstructed minimum time 2·√(2/1)
+    // (a lower bound for any path) is reached.
+    let bound = 2.0 * 2f64.sqrt();
+    assert!(s.final_time - bound < 1e-3 && s.final_time >= bound - 1e-6, "{}", s.final_time);
 }
 
 #[test]
@@ -182,6 +204,7 @@ fn the_solver_checks_interval_constraints_too() {
         first: 0,
         last: NODES - 1,
         activation: None,
+        sampling: armature_scvx::Sampling::Peak,
     }];
     let e = Ptr::new(ocp.clone(), PtrSettings::default()).unwrap_err();
     assert!(matches!(&e, PtrError::IntervalConstraint { name, .. } if name == "bad"), "{e}");

@@ -71,6 +71,7 @@ fn check(settings: PtrSettings) {
         increments: vec![],
         nodal: vec![],
         interval_bounds: vec![],
+        interval_bounds_sampling: armature_scvx::Sampling::Peak,
         interval_constraints: Vec::new(),
     };
     let mut ptr = Ptr::new(ocp, settings).unwrap();

@@ -62,6 +62,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         }],
         nodal: vec![],
         interval_bounds: vec![],
+        interval_bounds_sampling: armature_scvx::Sampling::Peak,
         interval_constraints: Vec::new(),
     };
     let mut ptr = Ptr::new(ocp.clone(), published_ptr(150)).unwrap();

@@ -92,6 +92,7 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
         };
         let _ = writeln!(s, "  {:<48} {kind}, nodes {:?}", c.name, c.nodes);
     }
+    between_nodes(&mut s, &ocp);
     let jac = d.function().jacobian_pattern();
     let _ = writeln!(
         s,
@@ -131,4 +132,31 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
         );
     }
     out.write_all(s.as_bytes()).map_err(|e| CliError { message: e.to_string(), code: exit::IO })
+}
+
+/// The constraints held between the nodes (state bounds and interval constraints), with
+/// where their rows sit.
+fn between_nodes(s: &mut String, ocp: &armature_scvx::Ocp) {
+    use armature_scvx::Sampling;
+    let place = |sampling: Sampling| match sampling {
+        Sampling::Peak => "at each segment's peak",
+        Sampling::GridPoints => "at every integration grid point",
+    };
+    if ocp.interval_bounds.is_empty() && ocp.interval_constraints.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, "between the nodes:");
+    if !ocp.interval_bounds.is_empty() {
+        let names: Vec<&str> = ocp
+            .interval_bounds
+            .iter()
+            .map(|&r| ocp.dynamics.state_name(r).unwrap_or("?"))
+            .collect();
+        let where_ = place(ocp.interval_bounds_sampling);
+        let _ = writeln!(s, "  bounds of {}: {where_}", names.join(", "));
+    }
+    for c in &ocp.interval_constraints {
+        let (name, where_) = (&c.name, place(c.sampling));
+        let _ = writeln!(s, "  {name:<48} g ≤ 0 {where_}, segments {}..{}", c.first, c.last);
+    }
 }

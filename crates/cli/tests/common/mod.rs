@@ -44,9 +44,8 @@ pub(crate) fn temp_file(tag: &str, name: &str, text: &str) -> TempFile {
 
 /// A task solve that ended at a solution: converged (exit 0), or converged at the nodes with
 /// a constraint broken on the dense trajectory (exit 3, status `violated_between_nodes`, the
-/// largest violation a dense check with its time). The seed's tasks end in the second way
-/// today: their gripper-orientation ranges (squared-ReLU CTCS, ε = 1e-4, two nodes per
-/// segment) hold at the nodes but not between them.
+/// largest violation a dense check with its time). The shipped examples converge; edited
+/// tasks may end either way.
 pub(crate) fn assert_solved(code: i32, result: &serde_json::Value, stderr: &str) {
     match result["status"].as_str() {
         Some("converged") => assert_eq!(code, 0, "{stderr}"),

@@ -304,6 +304,7 @@ impl Problem {
                 first: c.first,
                 last: c.last,
                 activation: c.activation,
+                sampling: c.sampling,
             };
             if ic.reads_controls(n) {
                 return Err(bad(what, "it reads a control; it may read the states only"));
@@ -413,6 +414,7 @@ impl Problem {
                 }
                 rows
             },
+            interval_bounds_sampling: self.interval_bounds_sampling,
             interval_constraints,
         }
     }

@@ -26,10 +26,12 @@ impl Ptr {
             .sum();
         let interval_rows: Vec<usize> =
             ocp.interval_bounds.iter().copied().filter(|&r| r < n).collect();
+        let pts = settings.discretization.substeps + 1;
+        let places = rows::peaks::state_row_places(ocp.interval_bounds_sampling, nn, pts);
         let n_peaks: usize = interval_rows
             .iter()
             .map(|&r| {
-                (nn - 1)
+                places
                     * (usize::from(ocp.x_max[r].is_finite())
                         + usize::from(ocp.x_min[r].is_finite()))
             })
@@ -37,7 +39,7 @@ impl Ptr {
             + ocp
                 .interval_constraints
                 .iter()
-                .map(|c| rows::peaks::segments(c, nn).len() * c.function.n_outputs())
+                .map(|c| rows::peaks::function_rows(c, nn, pts))
                 .sum::<usize>();
         let n_vars = v.vb0 + n_buffers + n_peaks;
         // Evaluation buffers of the nodal constraints, per (constraint, node).

@@ -145,6 +145,22 @@ pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, [f64
     (w[0] * gm + w[1] * g0 + w[2] * gp, c - 1, w)
 }
 
+/// The largest value of `g` within half a grid step of interior grid point `j` of `pts`, by
+/// the parabola through `j − 1, j, j + 1` where it is concave (its vertex clamped to
+/// `j ± ½`), else `g(j)`; at the segment's ends, `g(j)`. As `peak_of`: (value, the stencil's
+/// first point, its weights). Each grid point's row so also holds the constraint between the
+/// points, to third order in the grid step.
+pub(super) fn local_peak(pts: usize, j: usize, g: impl Fn(usize) -> f64) -> (f64, usize, [f64; 3]) {
+    if j == 0 || j + 1 >= pts {
+        return (g(j), j, [1.0, 0.0, 0.0]);
+    }
+    let (gm, g0, gp) = (g(j - 1), g(j), g(j + 1));
+    let curv = gm - 2.0 * g0 + gp;
+    let theta = if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-0.5, 0.5) } else { 0.0 };
+    let w = [0.5 * theta * (theta - 1.0), 1.0 - theta * theta, 0.5 * theta * (theta + 1.0)];
+    (w[0] * gm + w[1] * g0 + w[2] * gp, j - 1, w)
+}
+
 impl Ptr {
     /// Evaluates every nodal constraint at `(x, u)` into the buffers (values, with `jac` their
     /// Jacobians, and per-buffer violations); returns `(Σ w·violation, largest violation)`.
@@ -390,16 +406,21 @@ impl Ptr {
         p: &PeakRow,
     ) -> (f64, usize, [f64; 3]) {
         let pts = d.grid_points;
+        // The segment's peak, or the local one at a fixed grid point.
+        let at = |g: &dyn Fn(usize) -> f64| match p.at {
+            Some(j) => local_peak(pts, j, g),
+            None => peak_of(pts, g),
+        };
         match p.of {
             PeakOf::State(r) => {
                 let stride = self.ocp.dynamics.grid_stride();
                 let base = p.seg * pts * stride + r;
-                peak_of(pts, |j| p.sign * d.grid[base + j * stride] - p.bound)
+                at(&|j| p.sign * d.grid[base + j * stride] - p.bound)
             }
             PeakOf::Function { c, out } => {
                 let meta = &self.intervals[c];
                 let v0 = meta.val0 + (p.seg - meta.first) * pts * meta.nout + out;
-                peak_of(pts, |j| ev.fgrid[v0 + j * meta.nout])
+                at(&|j| ev.fgrid[v0 + j * meta.nout])
             }
         }
     }

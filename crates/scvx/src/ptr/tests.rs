@@ -37,12 +37,14 @@ fn double_integrator(
         increments: vec![],
         nodal: vec![],
         interval_bounds,
+        interval_bounds_sampling: crate::Sampling::Peak,
         interval_constraints: vec![super::IntervalConstraint {
             name: "g".into(),
             function,
             first: 0,
             last: nodes - 1,
             activation: None,
+            sampling: crate::Sampling::Peak,
         }],
     }
 }
@@ -86,13 +88,34 @@ fn interval_values_kept_for_the_reference_are_its_own() {
 /// for the velocity's bounds and for a nonlinear interval constraint of both states.
 #[test]
 fn peak_row_coefficients_are_derivatives_of_the_peak() {
+    let (checked, checked_g) = row_coefficients_against_differences(crate::Sampling::Peak);
+    assert!(checked >= 8, "{checked} coefficients of refined (interior) peaks checked");
+    assert!(checked_g >= 8, "{checked_g} coefficients of refined function peaks checked");
+}
+
+/// The same with a row at every grid point ([`crate::Sampling::GridPoints`]): each row's
+/// coefficients are the derivatives of its local peak (the parabola's vertex within half a
+/// grid step, or the point's value).
+#[test]
+fn grid_point_row_coefficients_are_derivatives_of_their_local_peaks() {
+    let (checked, checked_g) = row_coefficients_against_differences(crate::Sampling::GridPoints);
+    assert!(checked >= 8, "{checked} coefficients of refined (interior) local peaks checked");
+    assert!(checked_g >= 8, "{checked_g} coefficients of refined function rows checked");
+}
+
+/// Checks every interval row's coefficients against central differences of its value;
+/// returns how many coefficients of parabola-refined rows (of state bounds, of functions)
+/// were checked.
+fn row_coefficients_against_differences(sampling: crate::Sampling) -> (usize, usize) {
     use super::{PeakOf, Ptr, PtrSettings, Source};
     use crate::DiscretizationSettings;
     // g = [v² + 0.3·p − 0.2, −v·(1 + sin²p)] ≤ 0 on segments 0..3.
     let g = |p: &Expr, v: &Expr| {
         Expr::concat(&[&(v * v) + &(p * 0.3) - 0.2, -(v * &(&(&p.sin() * &p.sin()) + 1.0))])
     };
-    let ocp = double_integrator(4, 0.5, [None, None], g, vec![1]);
+    let mut ocp = double_integrator(4, 0.5, [None, None], g, vec![1]);
+    ocp.interval_bounds_sampling = sampling;
+    ocp.interval_constraints[0].sampling = sampling;
     let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
     let settings = DiscretizationSettings::default();
     // z = [x (4×2) | u (4) | s (4)]: alternating accelerations make the velocity peak
@@ -120,7 +143,9 @@ fn peak_row_coefficients_are_derivatives_of_the_peak() {
     ptr.fill_peaks(&d, &mut ev, super::GridAt::Other);
     let h = 1e-6;
     let (mut checked, mut checked_g) = (0, 0);
-    assert_eq!(ptr.peaks.len(), 3 * 2 + 3 * 2, "±v and g's 2 outputs on 3 segments");
+    // ±v and g's 2 outputs on 3 segments: at each peak, or at the 3·10 + 1 grid points.
+    let places = if sampling == crate::Sampling::Peak { 3 } else { 31 };
+    assert_eq!(ptr.peaks.len(), places * (2 + 2));
     for pk in &ptr.peaks {
         let (_, _, w) = peak(&z, pk);
         let interior = w.iter().filter(|&&w| w != 0.0).count() == 3;
@@ -150,8 +175,27 @@ fn peak_row_coefficients_are_derivatives_of_the_peak() {
             }
         }
     }
-    assert!(checked >= 8, "{checked} coefficients of refined (interior) peaks checked");
-    assert!(checked_g >= 8, "{checked_g} coefficients of refined function peaks checked");
+    (checked, checked_g)
+}
+
+/// `local_peak`: the vertex of the parabola through a grid point and its neighbours, within
+/// half a step; the point's own value where the parabola is convex and at the segment's ends.
+#[test]
+fn local_peaks_are_vertices_within_half_a_step() {
+    use super::evaluate::local_peak;
+    let pts = 6;
+    let weights_sum = |w: [f64; 3]| w.iter().sum::<f64>();
+    // A concave parabola with its vertex 0.3 past point 2: exact.
+    let (v, first, w) = local_peak(pts, 2, |j| 1.0 - (j as f64 - 2.3).powi(2));
+    assert!((v - 1.0).abs() < 1e-12 && first == 1 && (weights_sum(w) - 1.0).abs() < 1e-12);
+    // Its vertex 1.9 past point 2: clamped at 2.5.
+    let (v, _, _) = local_peak(pts, 2, |j| 1.0 - (j as f64 - 3.9).powi(2));
+    assert!((v - (1.0 - 1.4f64.powi(2))).abs() < 1e-12, "{v}");
+    // Convex, flat and end points: the value there.
+    assert!((local_peak(pts, 2, |j| (j as f64 - 2.3).powi(2)).0 - 0.09).abs() < 1e-12);
+    assert_eq!(local_peak(pts, 3, |_| 0.7).0, 0.7);
+    assert_eq!(local_peak(pts, 0, |j| -(j as f64)).0, 0.0);
+    assert_eq!(local_peak(pts, pts - 1, |j| j as f64), (5.0, 5, [1.0, 0.0, 0.0]));
 }
 
 /// `h` (d×d) times `v`.

@@ -33,6 +33,7 @@ pub(crate) fn problem(
         increments: vec![],
         nodal,
         interval_bounds: vec![],
+        interval_bounds_sampling: armature_scvx::Sampling::Peak,
         interval_constraints: Vec::new(),
     }
 }

@@ -283,6 +283,7 @@ pub fn build_with(variant: Variant) -> Seed {
         // The velocities: the bounds the time-optimal motion rides (the joint limits are far
         // from this motion; the dense check verifies both).
         interval_bounds: if interval_bounds { (7..14).collect() } else { vec![] },
+        interval_bounds_sampling: armature_scvx::Sampling::Peak,
         // The clearances also at each segment's peak (the CTCS integral alone switches its
         // gradient on and off where the motion grazes an obstacle between the nodes).
         interval_constraints: match clearance {
@@ -292,6 +293,7 @@ pub fn build_with(variant: Variant) -> Seed {
                 first: 0,
                 last: nodes - 1,
                 activation: Some(CLEARANCE_ACTIVATION),
+                sampling: armature_scvx::Sampling::Peak,
             }],
             _ => Vec::new(),
         },

@@ -62,6 +62,7 @@ mod tests {
             increments: vec![],
             nodal: vec![],
             interval_bounds: vec![],
+            interval_bounds_sampling: crate::Sampling::Peak,
             interval_constraints: vec![],
         }
     }

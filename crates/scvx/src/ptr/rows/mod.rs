@@ -133,6 +133,9 @@ pub(super) struct PeakRow {
     /// the state row's entry, or (function rows) of row 0's entry in the column, with the
     /// column's row stride in `peak_stride`.
     pub(super) src: std::ops::Range<usize>,
+    /// A fixed grid point of the segment ([`crate::Sampling::GridPoints`]), or `None` for
+    /// the peak.
+    pub(super) at: Option<usize>,
 }
 
 /// What a [`PeakRow`] bounds.

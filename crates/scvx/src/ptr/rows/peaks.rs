@@ -12,7 +12,7 @@ use armature_symbolic::SparsityPattern;
 
 use super::{Cone, Placement, RowFamily};
 use super::{IntervalMeta, PeakOf, PeakRow, RowBuilder, Source, VarLayout};
-use crate::{IntervalConstraint, Ocp};
+use crate::{IntervalConstraint, Ocp, Sampling};
 
 /// The peak rows as placed.
 #[derive(Debug, Default)]
@@ -71,10 +71,11 @@ impl PeakPlacement {
         push(v.s(k), bm0 + off(1, v.m), su, rb);
     }
 
-    /// Ends a peak row of `of` on segment `seg` whose coefficients start at `start`.
+    /// Ends a row of `of` on segment `seg` (at its peak, or at grid point `at`) whose
+    /// coefficients start at `start`.
     fn finish_row(
         &mut self,
-        seg: usize,
+        (seg, at): (usize, Option<usize>),
         of: PeakOf,
         sign: f64,
         bound: f64,
@@ -82,7 +83,8 @@ impl PeakPlacement {
         rb: &mut RowBuilder,
     ) {
         rb.entry(self.buffer, Source::Const(-1.0));
-        self.peaks.push(PeakRow { seg, of, sign, bound, row: rb.row, src: start..self.src.len() });
+        let src = start..self.src.len();
+        self.peaks.push(PeakRow { seg, of, sign, bound, row: rb.row, src, at });
         rb.end_row(0.0);
         self.buffer += 1;
     }
@@ -95,23 +97,54 @@ pub(in crate::ptr) fn push_state_peaks(
     tp: &SparsityPattern,
     rows: &[usize],
     placed: &mut PeakPlacement,
+    pts: usize,
     rb: &mut RowBuilder,
 ) {
     for k in 0..v.nn - 1 {
-        for &r in rows {
-            for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
-                if !bound.is_finite() {
-                    continue;
+        for at in sample_points(ocp.interval_bounds_sampling, k, v.nn - 1, pts) {
+            for &r in rows {
+                for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
+                    if !bound.is_finite() {
+                        continue;
+                    }
+                    let start = placed.src.len();
+                    let off = |block: usize, i: usize| {
+                        if block == 0 { r * v.n + i } else { r * v.mc + i }
+                    };
+                    placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
+                    placed.finish_row((k, at), PeakOf::State(r), sign, bound, start, rb);
                 }
-                let start = placed.src.len();
-                let off =
-                    |block: usize, i: usize| if block == 0 { r * v.n + i } else { r * v.mc + i };
-                placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
-                placed.finish_row(k, PeakOf::State(r), sign, bound, start, rb);
             }
         }
     }
     placed.stride = vec![0; placed.src.len()];
+}
+
+/// The rows' places on segment `k` (of segments `..end`) under `sampling`: the peak (`None`),
+/// or each grid point once — a segment's last point only on the last segment, the next
+/// segment's first point being the same node.
+fn sample_points(sampling: Sampling, k: usize, end: usize, pts: usize) -> Vec<Option<usize>> {
+    match sampling {
+        Sampling::Peak => vec![None],
+        Sampling::GridPoints => {
+            let last = if k + 1 == end { pts } else { pts - 1 };
+            (0..last).map(Some).collect()
+        }
+    }
+}
+
+/// The number of places of a row on the `nn − 1` segments under `sampling`.
+pub(in crate::ptr) fn state_row_places(sampling: Sampling, nn: usize, pts: usize) -> usize {
+    (0..nn - 1).map(|k| sample_points(sampling, k, nn - 1, pts).len()).sum()
+}
+
+/// The number of rows (and buffers) of interval constraint `c` on `nn` nodes with `pts` grid
+/// points per segment.
+pub(in crate::ptr) fn function_rows(c: &IntervalConstraint, nn: usize, pts: usize) -> usize {
+    let segs = segments(c, nn);
+    let places: usize =
+        segs.clone().map(|k| sample_points(c.sampling, k, segs.end, pts).len()).sum();
+    places * c.function.n_outputs()
 }
 
 /// Appends the interval constraints' peak rows (constraint, segment, output) with their
@@ -136,12 +169,15 @@ pub(in crate::ptr) fn push_function_peaks(
         }
         let segs = segments(c, v.nn);
         for k in segs.clone() {
-            for (out, dep) in deps.iter().enumerate() {
-                let start = placed.src.len();
-                let reads = |col: usize| dep.iter().any(|&(r, _)| tp.contains(r, col));
-                let stride = Some((v.n, v.mc));
-                placed.coefficients(v, k, reads, |_, i| i, stride, rb);
-                placed.finish_row(k, PeakOf::Function { c: ci, out }, 1.0, 0.0, start, rb);
+            for at in sample_points(c.sampling, k, segs.end, pts) {
+                for (out, dep) in deps.iter().enumerate() {
+                    let start = placed.src.len();
+                    let reads = |col: usize| dep.iter().any(|&(r, _)| tp.contains(r, col));
+                    let stride = Some((v.n, v.mc));
+                    placed.coefficients(v, k, reads, |_, i| i, stride, rb);
+                    let of = PeakOf::Function { c: ci, out };
+                    placed.finish_row((k, at), of, 1.0, 0.0, start, rb);
+                }
             }
         }
         placed.intervals.push(IntervalMeta {
@@ -170,7 +206,7 @@ impl RowFamily for StatePeaks {
     const CONE: Cone = Cone::Nonnegative;
 
     fn push(cx: &mut Placement<'_>) {
-        push_state_peaks(cx.v, cx.ocp, cx.tp, cx.interval_rows, &mut cx.peaks, &mut cx.rb);
+        push_state_peaks(cx.v, cx.ocp, cx.tp, cx.interval_rows, &mut cx.peaks, cx.pts, &mut cx.rb);
     }
 }
 
