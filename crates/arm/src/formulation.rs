@@ -64,9 +64,11 @@ pub(crate) fn add_task_constraints(problem: &mut Problem, t: &ArmTask) -> Result
     let nodes = problem.nodes;
     let fk = chain.symbolic_fk(&problem.states[0].expr()).map_err(|e| e.to_string())?;
     let p_ee = fk.ee_position();
-    // With the velocity peaks bounded, the limits' integral only has to catch what lies
-    // between the integration grid's points: a budget of 1e-5 (1e-6 slows the solve).
-    let eps = if velocity_limit_peaks { 1e-5 } else { 1e-6 };
+    // The limits' integral budget per segment. Alone it must keep the velocities within
+    // 1e-4 of their limits between the nodes: at 1e-6 a tenth of the suite's tasks ended
+    // 1-4e-4 over, at 1e-7 those converge (BENCHMARKS.md, 2026-12-04). With the velocity
+    // peaks bounded it only has to catch what lies between the integration grid's points.
+    let eps = if velocity_limit_peaks { 1e-5 } else { 1e-7 };
     let limits = CtcsOptions { penalty: Penalty::Relu, eps, group: 0 };
     let mut constraints: Vec<ProblemConstraint> = Vec::new();
     let mut between_nodes = Vec::new();

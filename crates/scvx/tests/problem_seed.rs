@@ -1,98 +1,25 @@
-//! The seed pick-and-place written with the named problem layer (as the tutorial writes it
-//! with OpenSCvx): converges like the hand-assembled fixture, with named nodal and dense
-//! trajectories, algebraic outputs and a JSON result with the stable top-level keys.
+//! The seed pick-and-place through the named problem layer, as `armature_arm` builds it
+//! (the tutorial's formulation, written once for the whole repo): converges with named
+//! nodal and dense trajectories, algebraic outputs and a JSON result with the stable
+//! top-level keys; broken problems say what is wrong.
 
 mod seed;
 
-use armature_lie::SO3;
-use armature_scvx::{
-    Ball, Control, CtcsOptions, Penalty, Problem, ProblemConstraint, ProblemError, PtrSettings,
-    State, Time,
-};
-use armature_symbolic::{Expr, Shape};
+use armature_arm::fixtures;
+use armature_scvx::{Problem, ProblemError, PtrSettings, Time};
+use armature_symbolic::Expr;
 
-fn seed_problem(s: &seed::Seed) -> Problem {
-    let nn = seed::NODES;
-    let n = s.ocp.dynamics.n_x();
-    let (qlo, qhi) = s.arm.position_limits();
-    let q0: Vec<f64> = s.x[..7].to_vec();
-    let angle = State::new("angle", 7).bounds(&qlo, &qhi).initial_value(&q0);
-    let velocity = State::new("velocity", 7)
-        .bounds(&[-seed::VELOCITY; 7], &[seed::VELOCITY; 7])
-        .initial_value(&[0.0; 7])
-        .final_value(&[0.0; 7]);
-    let torque = Control::new("torque", 7)
-        .bounds(&seed::TORQUE.map(|t| -t), &seed::TORQUE)
-        .guess(s.u.clone());
-    let (a, v, tau) = (angle.expr(), velocity.expr(), torque.expr());
-    let angle = angle.guess((0..nn).flat_map(|k| s.x[k * n..k * n + 7].to_vec()).collect());
-    let velocity =
-        velocity.guess((0..nn).flat_map(|k| s.x[k * n + 7..k * n + 14].to_vec()).collect());
-    let fk = s.arm.symbolic_fk(&a).unwrap();
-    let p_ee = fk.ee_position();
-    let down = SO3::from_quaternion_wxyz(seed::Q_DOWN).unwrap();
-    let log = Expr::from_matrix(&down.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
-    let ori = log.norm2();
-    let limits = CtcsOptions { penalty: Penalty::Relu, eps: 1e-6, group: 0 };
-    let mut constraints: Vec<ProblemConstraint> = vec![ProblemConstraint {
-        constraint: (-p_ee.at(2)).le(0.0).ctcs().named("table"),
-        ctcs: limits,
-    }];
-    for (deg, first, last) in [(5.0, 2, 10), (0.1, 2, 6), (0.1, 8, 10)] {
-        constraints.push(
-            (&ori - f64::to_radians(deg))
-                .le(0.0)
-                .ctcs()
-                .over(first, last)
-                .named(format!("orientation {deg}° over {first}..={last}"))
-                .into(),
-        );
-    }
-    let mut balls: Vec<Ball> = seed::WAYPOINTS
-        .iter()
-        .enumerate()
-        .map(|(w, (p, _))| Ball {
-            name: format!("waypoint {w}"),
-            g: &p_ee - Expr::parameter(&seed::waypoint_parameter(w), Shape::Vector(3), p),
-            radius: 0.01,
-            nodes: vec![2 * w],
-        })
-        .collect();
-    for (deg, nodes) in seed::orientation_ranges() {
-        balls.push(Ball {
-            name: format!("orientation {deg}°"),
-            g: log.clone(),
-            radius: deg.to_radians(),
-            nodes,
-        });
-    }
-    let i_inv = Expr::constant_vector(&seed::INERTIA.map(|i| 1.0 / i));
-    Problem {
-        dynamics: vec![v.clone(), &i_inv * &tau],
-        states: vec![angle, velocity],
-        controls: vec![torque],
-        time: Time::Free {
-            min: 0.0,
-            max: 4.0,
-            guess: s.s[..nn - 1].iter().sum::<f64>() / (nn - 1) as f64,
-            minimize: true,
-        },
-        constraints,
-        balls,
-        outputs: vec![
-            ("ee_position".into(), p_ee),
-            ("T_ee".into(), fk.frame("ee").unwrap().clone()),
-        ],
-        state_bounds_ctcs: Some(limits),
-        ..Problem::new(nn)
-    }
+/// The seed's problem and the guess of its segments' durations.
+fn seed_problem() -> (Problem, Vec<f64>) {
+    let plan = fixtures::pick_and_place().plan().unwrap();
+    (plan.problem, plan.dilation_guess)
 }
 
 #[test]
 fn seed_through_the_problem_layer_converges_with_named_outputs() {
-    let s = seed::build();
-    let mut compiled = seed_problem(&s).compile(PtrSettings::default()).unwrap();
-    compiled.set_dilation_guess(&s.s).unwrap();
+    let (problem, dilation) = seed_problem();
+    let mut compiled = problem.compile(PtrSettings::default()).unwrap();
+    compiled.set_dilation_guess(&dilation).unwrap();
     let sol = compiled.solve().unwrap();
     eprintln!("{} after {} iterations, T = {:.4} s", sol.status, sol.iterations, sol.final_time);
     solved(&sol);
@@ -106,12 +33,12 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     assert_eq!(sol.nodes["T_ee"][0].len(), 16);
     assert!((sol.nodes["time"][seed::NODES - 1][0] - sol.final_time).abs() < 1e-12);
     // Waypoints from the ee_position output, table and limits on the dense trajectory.
-    for (w, (p, _)) in seed::WAYPOINTS.iter().enumerate() {
+    for (w, p) in fixtures::pick_and_place().waypoints.iter().map(|w| w.position).enumerate() {
         let e = &sol.nodes["ee_position"][2 * w];
         let d = ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt();
         assert!(d <= 0.01 + 1e-6, "waypoint {w}: {d} m");
     }
-    let (qlo, qhi) = s.arm.position_limits();
+    let (qlo, qhi) = fixtures::pick_and_place().chain.position_limits();
     let worst = |key: &str, f: &dyn Fn(usize, f64) -> f64| {
         sol.trajectory[key]
             .iter()
@@ -123,7 +50,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     assert!(worst("velocity", &|_, v| v.abs() - seed::VELOCITY) <= 1e-4);
     // Every constraint reported by name; nothing left violated at the nodes (the dense
     // checks carry their instants).
-    assert!(sol.violations.iter().any(|v| v.constraint == "waypoint 5"));
+    assert!(sol.violations.iter().any(|v| v.constraint == "waypoint place"));
     assert!(sol.violations.iter().any(|v| v.constraint == "dynamics of angle[3]"));
     assert!(sol.violations.iter().any(|v| v.constraint == "table (dense)" && v.time.is_some()));
     let nodal = sol.violations.iter().filter(|v| v.time.is_none());
@@ -157,8 +84,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
 
 #[test]
 fn bad_problems_say_what_is_wrong() {
-    let s = seed::build();
-    let base = seed_problem(&s);
+    let base = seed_problem().0;
     let expect = |p: Problem, what: &str| match p.compile(PtrSettings::default()) {
         Err(ProblemError::Bad { what: w, reason }) => {
             assert!(w.contains(what), "{w}: {reason}")
@@ -174,7 +100,7 @@ fn bad_problems_say_what_is_wrong() {
     expect(p, "dynamics");
     let mut p = base.clone();
     p.balls[0].nodes = vec![99];
-    expect(p, "ball \"waypoint 0\"");
+    expect(p, "ball \"waypoint home\"");
     let mut p = base.clone();
     p.time = Time::Free { min: 0.0, max: f64::NAN, guess: 1.0, minimize: true };
     expect(p, "time");
@@ -186,7 +112,7 @@ fn bad_problems_say_what_is_wrong() {
     expect(p, "state \"angle\"");
     // A constraint over nodes beyond the last: the symbolic crate's message, named.
     let mut p = base.clone();
-    p.constraints[1].constraint = p.constraints[1].constraint.clone().over(2, 40);
+    p.constraints[0].constraint = p.constraints[0].constraint.clone().over(2, 40);
     assert!(matches!(p.compile(PtrSettings::default()), Err(ProblemError::Symbolic { .. })));
     // A dynamics expression over an unknown variable.
     let mut p = base;
