@@ -7,5 +7,6 @@
 #![warn(missing_docs)]
 
 pub mod generate;
+pub mod reference;
 pub mod run;
 pub mod verify;

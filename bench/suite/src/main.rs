@@ -1,7 +1,13 @@
-//! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE]`: solves every task
-//! of the suite with default settings, verifies each independently and prints the table.
+//! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
+//! [--reference FILE]`: solves every task of the suite with default settings, verifies each
+//! independently and prints the table, with T / T_ref where the stored reference
+//! (`bench/reference/t_ref.json`) has a verified solution. `--export` writes the tasks (with
+//! armature's guesses and solutions) for `bench/reference/t_ref.py`.
 
-use armature_suite::{generate, run};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use armature_suite::{generate, reference, run, verify};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -12,21 +18,50 @@ fn main() {
         .filter(|t| filter.as_ref().is_none_or(|f| t.name.contains(f.as_str())))
         .collect();
     eprintln!("{} tasks", tasks.len());
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let ref_path = value("--reference").map_or_else(|| root.join(reference::STORED), Into::into);
+    let refs = reference::load(&ref_path).unwrap_or_else(|e| {
+        eprintln!("no reference: {e}");
+        BTreeMap::new()
+    });
     let mut outcomes = Vec::new();
+    let mut t_ref = BTreeMap::new();
     for t in &tasks {
         let o = run::run_one(t);
+        let r = refs.get(&t.name).filter(|r| r.final_time.is_some()).map(|r| {
+            let worst = reference::verify_reference(t, r);
+            (r.final_time.unwrap_or(f64::NAN), worst)
+        });
+        let r_cell = match &r {
+            Some((tr, w)) if w.value <= verify::TOLERANCE => {
+                t_ref.insert(t.name.clone(), *tr);
+                format!("T_ref {tr:.4}")
+            }
+            Some((_, w)) => format!("T_ref unverified ({:.1e} {})", w.value, w.what),
+            None => "T_ref –".into(),
+        };
         eprintln!(
-            "{:<26} {:<22} it {:>3}  T {:>7.4}  {:>7.1} ms  worst {:>9.2e} {}",
+            "{:<26} {:<22} it {:>3}  T {:>7.4}  {:>7.1} ms  worst {:>9.2e} {}  {r_cell}",
             o.name, o.status, o.iterations, o.final_time, o.solve_ms, o.worst, o.worst_what
         );
         outcomes.push(o);
     }
-    println!("{}", run::table(&outcomes));
-    if let Some(path) = value("--json") {
-        let json = serde_json::to_string_pretty(&outcomes).expect("outcomes serialize");
-        if let Err(e) = std::fs::write(path, json) {
+    println!("{}", run::table(&outcomes, &t_ref));
+    // Written whole or not at all: a temporary file beside it, renamed.
+    let write = |path: &String, json: String| {
+        let tmp = format!("{path}.tmp");
+        if let Err(e) = std::fs::write(&tmp, json).and_then(|()| std::fs::rename(&tmp, path)) {
+            let _ = std::fs::remove_file(&tmp);
             eprintln!("error: {path}: {e}");
             std::process::exit(4);
         }
+    };
+    if let Some(path) = value("--json") {
+        write(path, serde_json::to_string_pretty(&outcomes).expect("outcomes serialize"));
+    }
+    if let Some(path) = value("--export") {
+        let all: Vec<_> =
+            tasks.iter().zip(&outcomes).map(|(t, o)| reference::export(t, Some(o))).collect();
+        write(path, serde_json::to_string(&all).expect("tasks serialize"));
     }
 }

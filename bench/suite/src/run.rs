@@ -1,5 +1,6 @@
 //! Solving the suite with default settings, verifying each result, and the table.
 
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use armature_scvx::PtrStatus;
@@ -32,9 +33,24 @@ pub struct Outcome {
     pub verified: bool,
     /// Built infeasible, and why.
     pub infeasible: Option<String>,
+    /// The solution at the nodes (kept for the reference's export).
+    #[serde(skip)]
+    pub solution: Option<NodeSolution>,
 }
 
-fn checks(t: &SuiteTask) -> Checks {
+/// A solution at its nodes.
+#[derive(Debug, Clone)]
+pub struct NodeSolution {
+    /// Node times (s).
+    pub times: Vec<f64>,
+    /// Joint angles per node.
+    pub angles: Vec<Vec<f64>>,
+    /// Torques per node.
+    pub torques: Vec<Vec<f64>>,
+}
+
+/// What the verification checks for a task.
+pub fn checks(t: &SuiteTask) -> Checks {
     let task = &t.task;
     let (q_lo, q_hi) = task.chain.position_limits();
     let quat = |q: [f64; 4]| {
@@ -67,7 +83,8 @@ fn checks(t: &SuiteTask) -> Checks {
     }
 }
 
-fn accelerations(t: &SuiteTask) -> Box<dyn Accelerations> {
+/// The verification's dynamics for a task.
+pub fn accelerations(t: &SuiteTask) -> Box<dyn Accelerations> {
     match &t.task.dynamics {
         armature_arm::DynamicsModel::DecoupledInertia(i) => Box::new(verify::Decoupled(i.clone())),
         armature_arm::DynamicsModel::RigidBody { gravity } => {
@@ -92,6 +109,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         worst_what: String::new(),
         verified: false,
         infeasible: t.infeasible.map(String::from),
+        solution: None,
     };
     let start = Instant::now();
     let solution = match t.task.plan().map_err(|e| e.to_string()).and_then(|plan| {
@@ -122,6 +140,11 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     out.worst = worst.value;
     out.worst_what = worst.what;
     out.verified = solution.status == PtrStatus::Converged && worst.value <= TOLERANCE;
+    out.solution = Some(NodeSolution {
+        times,
+        angles: nodes["angle"].clone(),
+        torques: nodes["torque"].clone(),
+    });
     out
 }
 
@@ -133,10 +156,11 @@ fn percentile(v: &mut [f64], p: f64) -> f64 {
     v[((v.len() - 1) as f64 * p).round() as usize]
 }
 
-/// The table: per group and over all feasible tasks.
-pub fn table(outcomes: &[Outcome]) -> String {
+/// The table: per group and over all feasible tasks. `t_ref` holds the verified reference
+/// final time of the tasks that have one; T / T_ref is over the tasks verified on both sides.
+pub fn table(outcomes: &[Outcome], t_ref: &BTreeMap<String, f64>) -> String {
     let mut s = String::from(
-        "| group | tasks | converged + verified | iterations median / p90 / max | T median (s) | solve median / p90 (ms) |\n|---|---|---|---|---|---|\n",
+        "| group | tasks | converged + verified | iterations median / p90 / max | T median (s) | T / T_ref median / max (tasks) | solve median / p90 (ms) |\n|---|---|---|---|---|---|---|\n",
     );
     let mut groups: Vec<&str> = outcomes.iter().map(|o| o.group.as_str()).collect();
     groups.dedup();
@@ -154,8 +178,19 @@ pub fn table(outcomes: &[Outcome]) -> String {
         let mut tf: Vec<f64> =
             os.iter().filter(|o| o.final_time.is_finite()).map(|o| o.final_time).collect();
         let mut ms: Vec<f64> = os.iter().map(|o| o.solve_ms).collect();
+        let mut ratio: Vec<f64> = os
+            .iter()
+            .filter(|o| o.verified)
+            .filter_map(|o| t_ref.get(&o.name).map(|r| o.final_time / r))
+            .collect();
+        let ratio_cell = if ratio.is_empty() {
+            "–".to_string()
+        } else {
+            let max = ratio.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            format!("{:.3} / {:.3} ({})", percentile(&mut ratio, 0.5), max, ratio.len())
+        };
         s += &format!(
-            "| {name} | {n} | {ok} ({:.0} %) | {:.0} / {:.0} / {:.0} | {:.3} | {:.0} / {:.0} |\n",
+            "| {name} | {n} | {ok} ({:.0} %) | {:.0} / {:.0} / {:.0} | {:.3} | {ratio_cell} | {:.0} / {:.0} |\n",
             100.0 * ok as f64 / n.max(1) as f64,
             percentile(&mut it.clone(), 0.5),
             percentile(&mut it, 0.9),

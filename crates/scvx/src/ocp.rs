@@ -28,6 +28,10 @@ pub struct Ocp {
     pub s_min: f64,
     /// Bounds of the time dilation.
     pub s_max: f64,
+    /// The dilations' unit in the trust region; `None`: half their bounds' range (at least 1),
+    /// like every other variable. (A problem whose maximum time is far beyond its guess sets
+    /// it from the guess, or the region would let the dilations swing across that range.)
+    pub s_scale: Option<f64>,
     /// Bounds of the final time `Δτ·Σ_{k<N−1} s_k` (a linear constraint; `(0, ∞)` for none).
     pub final_time: (f64, f64),
     /// Weight of the final time in the cost (0: fixed-time feasibility).

@@ -211,7 +211,8 @@ pub struct Problem {
     /// (see [`crate::Sampling`]).
     pub interval_bounds_sampling: crate::Sampling,
     /// Bounds of the per-segment dilation `s` (segment duration `s/(N − 1)`); `None`:
-    /// `[T_max/40, 5·T_max]`.
+    /// `[H/40, 5·T_max]` with `H = min(T_max, 4·guess)` for a free time (`T` when fixed),
+    /// the trust region measuring `s` in units of `2.5·H`.
     pub dilation: Option<(f64, f64)>,
 }
 

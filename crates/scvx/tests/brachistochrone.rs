@@ -65,6 +65,7 @@ fn check(settings: PtrSettings) {
         x_final: vec![Some(xf), Some(yf), None],
         s_min: 0.05,
         s_max: 5.0,
+        s_scale: None,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         final_cost: vec![],

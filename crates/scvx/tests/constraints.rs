@@ -51,6 +51,7 @@ fn ctcs_velocity_limit_matches_the_analytic_minimum_time() {
         x_final: vec![Some(1.0), Some(0.0), None],
         s_min: 0.1,
         s_max: 10.0,
+        s_scale: None,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         final_cost: vec![],

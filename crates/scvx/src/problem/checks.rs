@@ -151,8 +151,18 @@ impl Problem {
         Ok(())
     }
 
-    /// The dilation bounds `(s_min, s_max)` after checking the time settings.
-    pub(super) fn check_time(&self) -> Result<(f64, f64), ProblemError> {
+    /// The dilation bounds `(s_min, s_max)` and trust-region unit after checking the time
+    /// settings.
+    ///
+    /// By default they are measured against a horizon `H`: the maximum time, or four times
+    /// the guess when that is shorter, so that a generous maximum (`max = 100` s for a
+    /// 1 s motion) neither floors every segment's duration at `H/40` nor lets the trust
+    /// region swing the dilations across `5·max`: `s ∈ [H/40, 5·max]`, unit `(5H − H/40)/2`.
+    pub(super) fn check_time(&self) -> Result<(f64, f64, Option<f64>), ProblemError> {
+        let horizon = match self.time {
+            Time::Free { max, guess, .. } if guess > 0.0 => max.min(4.0 * guess),
+            Time::Free { max, .. } | Time::Fixed(max) => max,
+        };
         let t_max = match self.time {
             Time::Fixed(t) => {
                 if !(t.is_finite() && t > 0.0) {
@@ -173,11 +183,18 @@ impl Problem {
                 max
             }
         };
-        let (lo, hi) = self.dilation.unwrap_or((t_max / 40.0, 5.0 * t_max));
+        let (lo, hi, unit) = match self.dilation {
+            Some((lo, hi)) => (lo, hi, None),
+            None => (
+                horizon / 40.0,
+                5.0 * t_max,
+                Some((0.5 * (5.0 * horizon - horizon / 40.0)).max(1.0)),
+            ),
+        };
         if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
             return Err(bad("dilation", format!("bounds [{lo}, {hi}] must satisfy 0 < min < max")));
         }
-        Ok((lo, hi))
+        Ok((lo, hi, unit))
     }
 
     /// The guess: states and controls by name, uniform dilations, CTCS integrals along it.

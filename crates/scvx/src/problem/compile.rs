@@ -44,7 +44,7 @@ impl Problem {
             return Err(bad("nodes", format!("need 2 to {MAX_NODES}, got {nn}")));
         }
         self.check_variables()?;
-        let (s_lo, s_hi) = self.check_time()?;
+        let dilation = self.check_time()?;
         let longest = match self.time {
             Time::Fixed(t) => t,
             Time::Free { max, .. } => max,
@@ -70,7 +70,7 @@ impl Problem {
         let dense_checks = self.dense_checks(continuous, &interval_constraints, &args)?;
         let (outputs, output_fn) = self.outputs(&args)?;
         let parts = (dynamics, nodal, interval_constraints);
-        let ocp = self.ocp(parts, &groups, n_named, (s_lo, s_hi));
+        let ocp = self.ocp(parts, &groups, n_named, dilation);
         let guess = self.guess(&ocp, n, &settings)?;
         let blocks = |names: Vec<(String, usize)>| {
             let mut off = 0;
@@ -348,7 +348,7 @@ impl Problem {
         ),
         groups: &Groups,
         n_named: usize,
-        (s_lo, s_hi): (f64, f64),
+        (s_lo, s_hi, s_scale): (f64, f64, Option<f64>),
     ) -> Ocp {
         let nn = self.nodes;
         // Bounds and boundary conditions.
@@ -389,6 +389,7 @@ impl Problem {
             x_final,
             s_min: s_lo,
             s_max: s_hi,
+            s_scale,
             final_time,
             time_weight,
             final_cost,

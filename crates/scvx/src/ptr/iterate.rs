@@ -85,7 +85,7 @@ impl Ptr {
                         self.ocp.u_max[(i - u0) % m.max(1)],
                     )
                 } else {
-                    scale_of(self.ocp.s_min, self.ocp.s_max)
+                    self.ocp.s_scale.unwrap_or_else(|| scale_of(self.ocp.s_min, self.ocp.s_max))
                 };
                 1.0 / (sc * sc)
             })

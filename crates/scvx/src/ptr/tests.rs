@@ -31,6 +31,7 @@ fn double_integrator(
         x_final: x_final.to_vec(),
         s_min: 0.1,
         s_max: 10.0,
+        s_scale: None,
         final_time: (0.0, f64::INFINITY),
         time_weight: 1.0,
         final_cost: vec![],

@@ -56,6 +56,7 @@ mod tests {
             x_final: vec![Some(1.0), Some(0.0)],
             s_min: 0.1,
             s_max: 10.0,
+            s_scale: None,
             final_time: (0.0, f64::INFINITY),
             time_weight: 1.0,
             final_cost: vec![],

@@ -1,0 +1,150 @@
+//! The independent optimal-control reference (`T_ref`): the tasks written out for
+//! `bench/reference/t_ref.py` (CasADi + IPOPT, direct transcription on a fine grid), and its
+//! stored solutions read back and verified here, by [`crate::verify`], like armature's own.
+//!
+//! A reference counts for a task only when its trajectory (the torques at its grid times,
+//! first-order hold, from its start at rest) passes the same verification as armature's.
+
+use std::collections::BTreeMap;
+
+use armature_arm::DynamicsModel;
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+use crate::generate::SuiteTask;
+use crate::run::{self, Outcome};
+use crate::verify::{self, Worst};
+
+/// The committed reference solutions, relative to the workspace root.
+pub const STORED: &str = "bench/reference/t_ref.json";
+
+/// One task's reference solution, as `t_ref.py` stores it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ReferenceSolution {
+    /// IPOPT's outcome of the best start (`Solve_Succeeded`, …), or why there is none.
+    pub status: String,
+    /// The final time of the best verified start (s); `None`: no start converged.
+    pub final_time: Option<f64>,
+    /// The final time each start reached (`None`: it failed).
+    pub starts: Vec<Option<f64>>,
+    /// Grid times (s).
+    pub times: Vec<f64>,
+    /// Torques at the grid times (first-order hold between them).
+    pub torques: Vec<Vec<f64>>,
+    /// The start configuration (at rest).
+    pub q0: Vec<f64>,
+    /// How far (rad) the orientation tolerances were tightened in the transcription so that
+    /// the trajectory holds them between its grid points too (0: not at all).
+    #[serde(default)]
+    pub backoff: f64,
+}
+
+/// The stored references by task name.
+pub type References = BTreeMap<String, ReferenceSolution>;
+
+/// Reads [`STORED`] (or another file).
+///
+/// # Errors
+/// The file cannot be read or is not the reference's JSON.
+pub fn load(path: &std::path::Path) -> Result<References, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Verifies a reference solution against its task: the largest violation on its dense
+/// re-integration.
+pub fn verify_reference(t: &SuiteTask, r: &ReferenceSolution) -> Worst {
+    if r.times.len() < 2 || r.torques.len() != r.times.len() {
+        return Worst { value: f64::INFINITY, what: "no trajectory".into() };
+    }
+    let mut acc = run::accelerations(t);
+    let zeros = vec![0.0; r.q0.len()];
+    let dense = verify::reintegrate(acc.as_mut(), &r.times, &r.torques, &r.q0, &zeros);
+    // The reference's grid is finer than the task's nodes; its waypoints and orientation
+    // ranges fall on the grid times of the task's node instants.
+    let node_times = reference_node_times(t, r);
+    let worst = verify::check(&run::checks(t), &dense, &node_times);
+    // It starts where the task starts (the plan's start configuration).
+    let start = t.task.plan().map(|p| p.ik.q[0].clone()).unwrap_or_default();
+    let off = if start.len() == r.q0.len() {
+        start.iter().zip(&r.q0).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+    } else {
+        f64::INFINITY
+    };
+    if off > worst.value {
+        return Worst { value: off, what: "start configuration".into() };
+    }
+    worst
+}
+
+/// The instants of the task's nodes on the reference's grid: the grid is uniform within each
+/// phase between the task's event nodes (waypoints, orientation range ends), so node `k` of
+/// phase `[a, b]` sits at the fraction `(k − a)/(b − a)` of it.
+fn reference_node_times(t: &SuiteTask, r: &ReferenceSolution) -> Vec<f64> {
+    let events = event_nodes(t);
+    let phases = events.len() - 1;
+    let per_phase = (r.times.len() - 1) / phases.max(1);
+    let mut out = Vec::with_capacity(t.task.nodes);
+    for k in 0..t.task.nodes {
+        let p = events.windows(2).position(|w| k >= w[0] && k <= w[1]).unwrap_or(phases - 1);
+        let (a, b) = (events[p], events[p + 1]);
+        let (t0, t1) = (r.times[p * per_phase], r.times[(p + 1) * per_phase]);
+        out.push(t0 + (t1 - t0) * (k - a) as f64 / (b - a).max(1) as f64);
+    }
+    out
+}
+
+/// Nodes where the reference starts a phase: the first and last, each waypoint's and each
+/// orientation range's ends.
+pub fn event_nodes(t: &SuiteTask) -> Vec<usize> {
+    let task = &t.task;
+    let mut e = vec![0, task.nodes - 1];
+    e.extend(task.waypoints.iter().map(|w| w.node));
+    e.extend(task.orientation.iter().flat_map(|o| [o.first, o.last]));
+    e.sort_unstable();
+    e.dedup();
+    e
+}
+
+/// The task as `t_ref.py` reads it, with armature's guess and (when it converged) its
+/// solution as starts.
+pub fn export(t: &SuiteTask, outcome: Option<&Outcome>) -> Value {
+    let task = &t.task;
+    let checks = run::checks(t);
+    let (inertia, rigid) = match &task.dynamics {
+        DynamicsModel::DecoupledInertia(i) => (i.clone(), false),
+        DynamicsModel::RigidBody { .. } => (Vec::new(), true),
+    };
+    let plan = task.plan().ok();
+    let guess = plan.as_ref().map(|p| json!({ "angles": p.ik.q, "durations": p.dilation_guess }));
+    let solution = outcome
+        .and_then(|o| o.solution.as_ref())
+        .map(|s| json!({ "times": s.times, "angles": s.angles, "torques": s.torques }));
+    json!({
+        "name": t.name,
+        "group": t.group,
+        "robot": run::robot_name(t.robot),
+        "infeasible": t.infeasible,
+        "rigid_body": rigid,
+        "inertia": inertia,
+        "q_lo": checks.q_lo,
+        "q_hi": checks.q_hi,
+        "qd_max": checks.qd_max,
+        "tau_max": checks.tau_max,
+        "nodes": task.nodes,
+        "events": event_nodes(t),
+        "t_max": task.time.max,
+        "waypoints": task.waypoints.iter().map(|w| json!({
+            "node": w.node, "position": w.position, "tolerance": w.tolerance })).collect::<Vec<_>>(),
+        "orientation": task.orientation.iter().map(|o| json!({
+            "quaternion_wxyz": o.quaternion_wxyz, "tolerance_deg": o.tolerance_deg,
+            "first": o.first, "last": o.last })).collect::<Vec<_>>(),
+        "table": task.table_height,
+        "balls": t.balls.iter().map(|(c, r)| json!({ "centre": [c.x, c.y, c.z], "radius": r }))
+            .collect::<Vec<_>>(),
+        "margin": task.collision.as_ref().map_or(0.0, |c| c.margin),
+        "q0": plan.as_ref().map(|p| p.ik.q[0].clone()),
+        "guess": guess,
+        "armature": solution,
+    })
+}
