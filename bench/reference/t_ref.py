@@ -232,7 +232,6 @@ def transcribe(task, k):
         add(ca.dot(d, d) / w["tolerance"] ** 2, -np.inf, 1.0)
     add(ca.sum1(hv), 0, spec["t_max"])
     x = ca.vertcat(ca.vec(qv), ca.vec(vv), ca.vec(av), hv)
-    big = np.full(n * g_count, np.inf)
     q_lo = np.tile(spec["q_lo"], g_count)
     q_hi = np.tile(spec["q_hi"], g_count)
     v_lo, v_hi = -np.tile(spec["qd_max"], g_count), np.tile(spec["qd_max"], g_count)
@@ -242,7 +241,6 @@ def transcribe(task, k):
     v_lo[-n:] = v_hi[-n:] = 0
     x_lo = np.concatenate([q_lo, v_lo, -np.tile(a_max, g_count), np.full(phases, 1e-3)])
     x_hi = np.concatenate([q_hi, v_hi, np.tile(a_max, g_count), np.full(phases, spec["t_max"])])
-    del big
     nlp = {"x": x, "f": ca.sum1(hv), "g": ca.vertcat(*g)}
     return nlp, (x_lo, x_hi), (np.concatenate(lb), np.concatenate(ub)), g_count
 

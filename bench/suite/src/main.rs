@@ -28,10 +28,9 @@ fn main() {
     let mut t_ref = BTreeMap::new();
     for t in &tasks {
         let o = run::run_one(t);
-        let r = refs.get(&t.name).filter(|r| r.final_time.is_some()).map(|r| {
-            let worst = reference::verify_reference(t, r);
-            (r.final_time.unwrap_or(f64::NAN), worst)
-        });
+        let r = refs
+            .get(&t.name)
+            .and_then(|r| r.final_time.map(|tr| (tr, reference::verify_reference(t, r))));
         let r_cell = match &r {
             Some((tr, w)) if w.value <= verify::TOLERANCE => {
                 t_ref.insert(t.name.clone(), *tr);

@@ -186,8 +186,8 @@ pub fn table(outcomes: &[Outcome], t_ref: &BTreeMap<String, f64>) -> String {
         let ratio_cell = if ratio.is_empty() {
             "–".to_string()
         } else {
-            let max = ratio.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            format!("{:.3} / {:.3} ({})", percentile(&mut ratio, 0.5), max, ratio.len())
+            let median = percentile(&mut ratio, 0.5);
+            format!("{median:.3} / {:.3} ({})", percentile(&mut ratio, 1.0), ratio.len())
         };
         s += &format!(
             "| {name} | {n} | {ok} ({:.0} %) | {:.0} / {:.0} / {:.0} | {:.3} | {ratio_cell} | {:.0} / {:.0} |\n",
