@@ -65,11 +65,11 @@ use crate::{
     Trajectory, Violation, ctcs_states,
 };
 
-/// Largest node count a [`Problem`] accepts. The subproblem's size grows linearly with the
-/// nodes, but its solve does not yet (a two-state problem takes about 240 MB and 9 s for one
-/// iteration at 1,000 nodes, 1.2 GB and 390 s at 2,000; see the crate's BENCHMARKS.md): this
-/// bound keeps an input from exhausting memory or time before the first iteration.
-pub const MAX_NODES: usize = 1_000;
+/// Largest node count a [`Problem`] accepts. Memory and time per iteration grow linearly
+/// with the nodes (the crate's BENCHMARKS.md has the measurements: about 25 kB per node for
+/// a two-state problem, 1.3 MB per node for the seed arm with its collision rows); this
+/// bound keeps an input from asking for more than a workstation has.
+pub const MAX_NODES: usize = 2_000;
 
 /// Largest number of samples of the dense trajectory (the longest final time allowed over
 /// `dense_dt`): the result files and the dense checks grow with it.

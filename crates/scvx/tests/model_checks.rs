@@ -63,3 +63,20 @@ fn what_sizes_memory_is_capped_with_the_setting_named() {
     let p = Problem { nodes: armature_scvx::MAX_NODES + 1, ..problem(|_, a| a.clone()) };
     assert!(refused(p).contains("nodes"));
 }
+
+/// The subproblem's KKT factor grows linearly with the nodes: the final-time bounds, a row
+/// over every segment's dilation, keep rows of their own instead of joining every dilation
+/// into one clique (quadratic in the nodes, which took 240 MB and 9 s for one iteration at
+/// 1,000 nodes).
+#[test]
+fn the_kkt_factor_grows_linearly_with_the_nodes() {
+    let factor = |nodes: usize| {
+        let p = Problem { nodes, ..problem(|_, a| a.clone()) };
+        let mut compiled = p.compile(PtrSettings::default()).expect("compiles");
+        compiled.ptr().dimensions().reduced_kkt_nonzeros.expect("interior point").1
+    };
+    let (small, large) = (factor(200), factor(armature_scvx::MAX_NODES));
+    let ratio = large as f64 / small as f64;
+    let nodes = armature_scvx::MAX_NODES as f64 / 200.0;
+    assert!(ratio < 1.2 * nodes, "factor nonzeros {small} → {large}: ×{ratio:.1} for ×{nodes}");
+}

@@ -127,8 +127,7 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     if let Some((k, l)) = dims.reduced_kkt_nonzeros {
         let _ = writeln!(
             s,
-            "interior point: reduced KKT matrix {} square, {k} nonzeros (upper triangle), {l} in its LDLᵀ factor",
-            dims.variables + dims.equality_rows
+            "interior point: reduced KKT matrix {k} nonzeros (upper triangle), {l} in its LDLᵀ factor"
         );
     }
     out.write_all(s.as_bytes()).map_err(|e| CliError { message: e.to_string(), code: exit::IO })

@@ -8,7 +8,12 @@
 //!
 //! with A₀ the equality rows of A and G its cone rows. A nonnegative row i adds
 //! `(z_i/s_i)·a_iᵀa_i`; a second-order cone adds `(W⁻¹G_c)ᵀ(W⁻¹G_c)` over the columns its
-//! rows touch. K is factored as LDLᵀ ([`Ldl`]: QDLDL's symbolic analysis, done once, in
+//! rows touch. A *dense* nonnegative row (more than [`IpmSettings::dense_row`](super::IpmSettings::dense_row) entries, such as a
+//! free-final-time row `Σ_k s_k ≤ t_max` over every segment's dilation) is not folded in —
+//! its product would join all its columns into one clique, so K's entries would grow with the
+//! square of the horizon and its ordering with the cube. It keeps a row and a column of its
+//! own instead, `[a_i; −s_i/z_i]`, whose unknown is its Δz_i (eliminating it gives back the
+//! folded product), and the orderings leave it to the end. K is factored as LDLᵀ ([`Ldl`]: QDLDL's symbolic analysis, done once, in
 //! AMD's ordering or, for a multistage problem, the cheapest staged one) with sign-aware
 //! dynamic regularization (+ for the primal block, − for the dual block), so K only has to
 //! be quasi-definite.
@@ -38,6 +43,12 @@ pub(super) struct ReducedKkt {
     values: Vec<f64>,
     p_map: Vec<usize>,
     eq_map: Vec<(usize, usize)>,
+    /// The dense nonnegative rows kept in K (numbered from A's first row; their K rows
+    /// follow the equality rows, in this order), their entries' (value in A, K entry) and
+    /// K's diagonal entry of each.
+    dense: Vec<usize>,
+    dense_map: Vec<(usize, usize)>,
+    dense_diag: Vec<usize>,
     diag: Vec<usize>,
     terms: Vec<Term>,
     /// Per cone: its columns (`cone_cols[k]..cone_cols[k + 1]` in a flat list), for each of
@@ -59,7 +70,8 @@ pub(super) struct ReducedKkt {
 
 impl ReducedKkt {
     /// The pattern of K for P's pattern (upper triangle) and A's rows, factored in AMD's
-    /// ordering. A nonnegative row `r` (numbered from the first row of A) for which `off(r)`
+    /// ordering. Nonnegative rows with more than `dense_row` entries keep their own rows. A
+    /// nonnegative row `r` (numbered from the first row of A) for which `off(r)`
     /// holds has at most one nonzero value in the solves this analysis serves: it only adds
     /// to K's diagonal, so its products off the diagonal are left out of the pattern.
     pub(super) fn analyse(
@@ -67,10 +79,13 @@ impl ReducedKkt {
         (p_colptr, p_rowval): (&[usize], &[usize]),
         rows: &Rows,
         cones: &Cones,
+        dense_row: usize,
         off: impl Fn(usize) -> bool,
     ) -> Result<ReducedKkt, IpmError> {
         let m0 = cones.zero;
-        let dim = n + m0;
+        let dense: Vec<usize> =
+            (m0..m0 + cones.nonneg).filter(|&r| !off(r) && rows.row(r).len() > dense_row).collect();
+        let dim = n + m0 + dense.len();
         let mut entries: Vec<(usize, usize)> = (0..dim).map(|c| (c, c)).collect();
         for c in 0..n {
             for &r in &p_rowval[p_colptr[c]..p_colptr[c + 1]] {
@@ -83,9 +98,15 @@ impl ReducedKkt {
         for r in 0..m0 {
             entries.extend(rows.row(r).iter().map(|&(c, _)| (c, n + r)));
         }
+        for (j, &r) in dense.iter().enumerate() {
+            entries.extend(rows.row(r).iter().map(|&(c, _)| (c, n + m0 + j)));
+        }
         // Nonnegative rows: every pair of a row's entries.
         let mut raw_terms = Vec::new();
         for r in m0..m0 + cones.nonneg {
+            if dense.binary_search(&r).is_ok() {
+                continue;
+            }
             let diagonal_only = off(r);
             for &(ca, pa) in rows.row(r) {
                 for &(cb, pb) in rows.row(r) {
@@ -133,6 +154,11 @@ impl ReducedKkt {
         for r in 0..m0 {
             eq_map.extend(rows.row(r).iter().map(|&(c, p)| (p, find(c, n + r))));
         }
+        let mut dense_map = Vec::new();
+        for (j, &r) in dense.iter().enumerate() {
+            dense_map.extend(rows.row(r).iter().map(|&(c, p)| (p, find(c, n + m0 + j))));
+        }
+        let dense_diag = (0..dense.len()).map(|j| find(n + m0 + j, n + m0 + j)).collect();
         let terms = raw_terms
             .iter()
             .map(|&(ca, cb, row, pa, pb)| Term { kkt: find(ca, cb), row, pa, pb })
@@ -148,6 +174,9 @@ impl ReducedKkt {
             values: vec![0.0; nnz],
             p_map,
             eq_map,
+            dense,
+            dense_map,
+            dense_diag,
             diag,
             terms,
             cone_cols,
@@ -168,7 +197,8 @@ impl ReducedKkt {
     /// if it needs less arithmetic.
     pub(super) fn reorder(&mut self, stages: &[Option<usize>]) {
         let (colptr, rowval) = (&self.pattern.colptr, &self.pattern.rowval);
-        let candidates = staged_orderings(colptr, rowval, stages);
+        let last = self.diag.len() - self.dense.len();
+        let candidates = staged_orderings(colptr, rowval, stages, last);
         let regularization = LDL_REGULARIZATION;
         let than = self.ldl.work();
         if let Some(ldl) =
@@ -198,8 +228,11 @@ impl ReducedKkt {
         for (k, &i) in self.p_map.iter().enumerate() {
             kkt[i] += p[k];
         }
-        for &(pa, i) in &self.eq_map {
+        for &(pa, i) in self.eq_map.iter().chain(&self.dense_map) {
             kkt[i] += a[pa];
+        }
+        for (&r, &i) in self.dense.iter().zip(&self.dense_diag) {
+            kkt[i] -= 1.0 / scaling.weights[r - cones.zero];
         }
         for t in &self.terms {
             kkt[t.kkt] += scaling.weights[t.row] * a[t.pa] * a[t.pb];
@@ -223,10 +256,41 @@ impl ReducedKkt {
                 kkt[idx] += dot(&self.gt[ja * d..ja * d + d], &self.gt[jb * d..jb * d + d]);
             }
         }
-        for (c, &i) in self.diag.iter().enumerate() {
+        // The static regularization: not on the dense rows, whose diagonal −s_i/z_i < 0
+        // already makes K quasi-definite (an active row's s_i/z_i is far below δ, which would
+        // then swamp it).
+        let regularized = self.diag.len() - self.dense.len();
+        for (c, &i) in self.diag[..regularized].iter().enumerate() {
             kkt[i] += if c < self.n { delta } else { -delta };
         }
         self.ldl.factor(kkt)
+    }
+
+    /// The right-hand side for the reduced system of the Newton step
+    /// `(P + GᵀW⁻²G)Δx + A₀ᵀΔz₀ = r₁ − GᵀW⁻²v`, `A₀Δx = r₂,₀` with `wv = W⁻²v` (cone rows):
+    /// a dense row's term moves to its own row, `a_iᵀΔx − Δz_i·s_i/z_i = −v_i`.
+    pub(super) fn load_rhs(
+        &mut self,
+        (r1, r2_eq): (&[f64], &[f64]),
+        (rows, a): (&Rows, &[f64]),
+        (wv, v): (&[f64], &[f64]),
+    ) {
+        let (n, m0) = (self.n, r2_eq.len());
+        let m = m0 + wv.len();
+        self.rhs[..n].copy_from_slice(r1);
+        let mut dense = self.dense.iter().peekable();
+        for r in m0..m {
+            if dense.next_if_eq(&&r).is_some() {
+                continue;
+            }
+            for &(c, pp) in rows.row(r) {
+                self.rhs[c] -= a[pp] * wv[r - m0];
+            }
+        }
+        self.rhs[n..n + m0].copy_from_slice(r2_eq);
+        for (j, &r) in self.dense.iter().enumerate() {
+            self.rhs[n + m0 + j] = -v[r - m0];
+        }
     }
 
     /// `sol = K⁻¹ rhs` with the last factorization.

@@ -37,6 +37,11 @@
 //! from W⁻¹G: W⁻² itself loses its small eigenvalue to cancellation near the boundary), so a
 //! solve allocates nothing.
 //!
+//! A nonnegative row with many entries (more than [`IpmSettings::dense_row`]; PTR's
+//! final-time bounds `Σ_k s_k`, over every segment's dilation) is not folded into
+//! GᵀW⁻²G: it keeps a row `[a_iᵀ, −s_i/z_i]` of its own (unknown Δz_i), and the orderings
+//! eliminate it last, so K and its factor stay linear in the horizon.
+//!
 //! Rows that a caller switches off between solves (all but at most one of their values
 //! zero; declared with [`InteriorPoint::with_switchable_rows`]) only add to K's diagonal, so
 //! each solve factors K without their products: the pattern for each set of switched-off rows
@@ -105,6 +110,12 @@ pub struct IpmSettings {
     /// central path, and active rows close to their true slack. Default 3e-3; 0 (or less)
     /// pushes the duals by the margin like the slacks.
     pub warm_start_centring: f64,
+    /// A nonnegative row with more entries than this keeps a row and a column of its own in
+    /// the reduced KKT matrix (unknown: its Δz) instead of adding its outer product
+    /// `(z/s)·aaᵀ`, which would join all its columns into one clique: a free final time's
+    /// `Σ_k s_k ≤ t_max` over N segments would make K's entries grow as N² and its ordering
+    /// as N³. Default 64.
+    pub dense_row: usize,
 }
 
 impl Default for IpmSettings {
@@ -116,6 +127,7 @@ impl Default for IpmSettings {
             refinement_steps: 1,
             warm_start_margin: 1e-2,
             warm_start_centring: 3e-3,
+            dense_row: 64,
         }
     }
 }
@@ -266,7 +278,8 @@ impl InteriorPoint {
             return bad("row index of A out of range");
         }
         let rows = Rows::new(m, a_colptr, a_rowval);
-        let kkt = ReducedKkt::analyse(n, (p_colptr, p_rowval), &rows, &cones, |_| false)?;
+        let pattern = (p_colptr, p_rowval);
+        let kkt = ReducedKkt::analyse(n, pattern, &rows, &cones, settings.dense_row, |_| false)?;
         let cone_rows = m - cones.zero;
         Ok(InteriorPoint {
             n,

@@ -183,16 +183,10 @@ impl InteriorPoint {
             nw.v[r - m0] = nw.t1[r - m0] - nw.r2[r];
         }
         self.scaling.apply_winv2(&nw.v, &mut nw.t2, &mut nw.t3);
-        self.kkt.rhs[..n].copy_from_slice(&nw.r1);
-        for r in m0..m {
-            for &(c, pp) in rows.row(r) {
-                self.kkt.rhs[c] -= a[pp] * nw.t2[r - m0];
-            }
-        }
-        self.kkt.rhs[n..].copy_from_slice(&nw.r2[..m0]);
+        self.kkt.load_rhs((&nw.r1, &nw.r2[..m0]), (rows, a), (&nw.t2, &nw.v));
         self.kkt.solve();
         nw.cx.copy_from_slice(&self.kkt.sol[..n]);
-        nw.cz[..m0].copy_from_slice(&self.kkt.sol[n..]);
+        nw.cz[..m0].copy_from_slice(&self.kkt.sol[n..n + m0]);
         for r in m0..m {
             let g = rows.dot(r, a, &nw.cx);
             nw.cs[r] = nw.r2[r] - g;

@@ -24,6 +24,10 @@
 //! repeatedly eliminate, among the alive nodes of greatest stage, one of least degree (ties:
 //! lowest index), and join its neighbours into a clique.
 //! ```
+//!
+//! Nodes from `last` on (the reduced KKT's dense rows, which touch every stage) are
+//! eliminated after all others, whatever their stage: eliminated earlier, each would join
+//! all its neighbours into one clique.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -33,17 +37,22 @@ use std::collections::BinaryHeap;
 /// columns: backward sweeps, with unstaged nodes taking the least or the greatest stage of
 /// their neighbours — or, when only some consecutive stages are coupled directly (see
 /// [`Assign::Mixed`]), the one sweep that takes the greatest where they are and the least
-/// elsewhere.
+/// elsewhere. Nodes from `last` on come after all others.
 pub(super) fn staged_orderings(
     colptr: &[usize],
     rowval: &[usize],
     stages: &[Option<usize>],
+    last: usize,
 ) -> Vec<Vec<usize>> {
     let adj = adjacency(colptr, rowval);
     let coupled = coupled_stages(&adj, stages);
     let sweep = |assign: Assign| {
-        let key: Vec<i64> =
-            propagate(&adj, stages, assign, &coupled).iter().map(|&s| -(s as i64)).collect();
+        let stage = propagate(&adj, stages, assign, &coupled);
+        let key: Vec<i64> = stage
+            .iter()
+            .enumerate()
+            .map(|(v, &s)| if v < last { -(s as i64) } else { i64::MAX })
+            .collect();
         staged_minimum_degree(&adj, &key)
     };
     // (The last stage has no next one: it is never coupled, and says nothing.)
@@ -265,13 +274,13 @@ mod tests {
         let adj = adjacency(&cp, &rv);
         let stages = [Some(0), Some(0), Some(1), Some(1), Some(2), Some(2)];
         assert_eq!(coupled_stages(&adj, &stages), vec![true, false, false]);
-        let candidates = staged_orderings(&cp, &rv, &stages);
+        let candidates = staged_orderings(&cp, &rv, &stages, 7);
         assert_eq!(candidates.len(), 1);
         assert!(is_permutation(&candidates[0], 7));
         // Without the two cross edges no stages are coupled: the least and the greatest.
         let (cp, rv) = pattern(7, &[(0, 2), (1, 3), (2, 4), (6, 0), (6, 3), (5, 4)]);
         assert_eq!(coupled_stages(&adjacency(&cp, &rv), &stages), vec![false, false, false]);
-        assert_eq!(staged_orderings(&cp, &rv, &stages).len(), 2);
+        assert_eq!(staged_orderings(&cp, &rv, &stages, 7).len(), 2);
     }
 
     /// Every candidate is a permutation, and the work count is the up-looking one.
@@ -280,7 +289,7 @@ mod tests {
         let edges: Vec<_> = (0..9).map(|v| (v, v + 1)).chain([(0, 5), (2, 7)]).collect();
         let (cp, rv) = pattern(10, &edges);
         let stages: Vec<Option<usize>> = (0..10).map(|v| (v % 3 != 0).then_some(v / 2)).collect();
-        let candidates = staged_orderings(&cp, &rv, &stages);
+        let candidates = staged_orderings(&cp, &rv, &stages, 10);
         assert_eq!(candidates.len(), 2);
         assert!(candidates.iter().all(|p| is_permutation(p, 10)));
         // Columns with 0, 1, 2 and 3 entries below the diagonal.

@@ -44,7 +44,8 @@ impl InteriorPoint {
                 let (switchable, off) = (&self.switchable, &self.off);
                 let is_off = |r: usize| switchable.binary_search(&r).is_ok_and(|i| off[i]);
                 let p = (&self.p_colptr[..], &self.p_rowval[..]);
-                match ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, is_off) {
+                let dense_row = self.settings.dense_row;
+                match ReducedKkt::analyse(self.n, p, &self.rows, &self.cones, dense_row, is_off) {
                     Ok(mut kkt) => {
                         if let Some(stages) = &self.stages {
                             kkt.reorder(stages);
@@ -107,19 +108,15 @@ impl InteriorPoint {
         if !self.kkt.factor(p, a, &self.scaling, &self.cones, self.settings.regularization) {
             return false;
         }
-        for (r, qi) in self.kkt.rhs[..n].iter_mut().zip(q) {
-            *r = -qi;
-        }
-        self.kkt.rhs[n..].copy_from_slice(&b[..m0]);
-        let (live, rows) = (&self.live_a, &self.live_rows);
-        for r in m0..self.m {
-            for &(c, pp) in rows.row(r) {
-                self.kkt.rhs[c] += live[pp] * b[r];
-            }
-        }
+        // The reduced system's right-hand side with r₁ = −q, W = I and v = −b_G.
+        let nw = &mut self.newton;
+        nw.r1.iter_mut().zip(q).for_each(|(r, qi)| *r = -qi);
+        nw.v.iter_mut().zip(&b[m0..]).for_each(|(v, bi)| *v = -bi);
+        let (live, rows) = (&self.live_a[..], &self.live_rows);
+        self.kkt.load_rhs((&nw.r1, &b[..m0]), (rows, live), (&nw.v, &nw.v));
         self.kkt.solve();
         self.x.copy_from_slice(&self.kkt.sol[..n]);
-        self.z[..m0].copy_from_slice(&self.kkt.sol[n..]);
+        self.z[..m0].copy_from_slice(&self.kkt.sol[n..n + m0]);
         self.s.fill(0.0);
         for r in m0..self.m {
             let g = self.live_rows.dot_from(-b[r], r, &self.live_a, &self.x);
