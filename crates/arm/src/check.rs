@@ -20,8 +20,8 @@ pub(crate) fn check(task: &ArmTask) -> Result<(), ArmError> {
     }
     if let Some(c) = &task.collision {
         let bad = |m: String| Err(ArmError::new(TaskItem::Collision, m));
-        if !(c.margin.is_finite() && c.margin >= 0.0) {
-            return bad(format!("margin {} must be ≥ 0", c.margin));
+        if !(0.0..=MAX_MARGIN).contains(&c.margin) {
+            return bad(format!("margin {:e} m must be in [0, {MAX_MARGIN}] m", c.margin));
         }
         if let Some(a) = c.between_nodes_activation
             && (a.is_nan() || a <= 0.0)
@@ -31,6 +31,10 @@ pub(crate) fn check(task: &ArmTask) -> Result<(), ArmError> {
     }
     check_start(task)
 }
+
+/// Largest collision margin (m): a clearance wider than an arm's reach is a mistake, and a
+/// margin that large makes the fixed links' clearances constraints that never hold.
+const MAX_MARGIN: f64 = 1.0;
 
 fn check_limits(task: &ArmTask) -> Result<(), ArmError> {
     let n = task.chain.dof();
@@ -128,7 +132,7 @@ fn check_orientation(task: &ArmTask) -> Result<(), ArmError> {
         }
         let deg = o.tolerance_deg;
         if !(deg.is_finite() && deg > 0.0 && deg < 180.0) {
-            return bad(format!("tolerance_deg {deg} must be in (0, 180)"));
+            return bad(format!("tolerance_deg {deg:e} must be in (0, 180)"));
         }
         if o.first >= o.last || o.last >= task.nodes {
             return bad(format!(

@@ -78,11 +78,13 @@ pub(crate) fn start_clear(task: &ArmTask, q0: &[f64]) -> Result<(), ArmError> {
     if let Some((r, pair)) = worst
         && r.distance < 0.0
     {
+        let depth = -r.distance;
+        let depth = if depth < 1e3 { format!("{depth:.3}") } else { format!("{depth:.3e}") };
         return Err(ArmError::new(
             TaskItem::Start,
             format!(
-                "the start configuration is in collision: {} and {} overlap by {:.3} m",
-                pair.a, pair.b, -r.distance
+                "the start configuration is in collision: {} and {} overlap by {depth} m",
+                pair.a, pair.b
             ),
         ));
     }

@@ -19,7 +19,8 @@ pub(crate) struct Guess {
 /// duration the limits allow, clamped into the time window.
 ///
 /// # Errors
-/// The IK's or the spline's, as [`TaskItem::Initialization`].
+/// The IK's or the spline's, as [`TaskItem::Initialization`] (the knots', which the
+/// velocity limits set, as [`TaskItem::VelocityLimit`]).
 pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess, ArmError> {
     let n = task.chain.dof();
     let bad = |m: String| ArmError::new(TaskItem::Initialization, m);
@@ -37,7 +38,7 @@ pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess
         ik.q[0] = start.clone();
     }
     let knots = JointSpline::time_optimal_knots(&ik.q, &task.velocity_limit)
-        .map_err(|e| bad(format!("initial guess: {e}")))?;
+        .map_err(|e| ArmError::new(TaskItem::VelocityLimit, format!("initial guess: {e}")))?;
     let spline = JointSpline::through_timed(&ik.q, &knots)
         .map_err(|e| bad(format!("initial guess: {e}")))?;
     let (t_min, t_max) = (task.time.min, task.time.max);

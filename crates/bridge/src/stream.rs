@@ -5,8 +5,8 @@ use std::time::{Duration, Instant};
 use iceoryx2::node::NodeState;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
-use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
+use iceoryx2::port::subscriber::{Subscriber, SubscriberCreateError};
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
@@ -72,6 +72,33 @@ pub enum BridgeError {
         /// The message's.
         got: u32,
     },
+    /// Another process already publishes on this run: one publisher per run, so that a
+    /// listener never sees two solves interleaved.
+    #[error(
+        "run '{run}' is already being streamed by another process; give this solve another run name"
+    )]
+    RunBusy {
+        /// The run name.
+        run: String,
+    },
+    /// The run already serves as many listeners as it can.
+    #[error(
+        "run '{run}' already has {max} listeners, the most a run serves (BridgeSettings::max_subscribers)"
+    )]
+    TooManyListeners {
+        /// The run name.
+        run: String,
+        /// The limit.
+        max: usize,
+    },
+    /// iceoryx2's shared state (under `/tmp/iceoryx2/`) belongs to another user.
+    #[error(
+        "{what}: no permission on iceoryx2's shared state in /tmp/iceoryx2/ (another user created it; see the bridge's README, \"Users, permissions and where the state lives\")"
+    )]
+    PermissionDenied {
+        /// What was being done.
+        what: &'static str,
+    },
     /// An iceoryx2 failure, with what was being done.
     #[error("{what}: {detail}")]
     Ipc {
@@ -82,8 +109,17 @@ pub enum BridgeError {
     },
 }
 
+/// An iceoryx2 error as ours: a permission failure typed (every iceoryx2 error type names
+/// it `InsufficientPermissions`), the rest with iceoryx2's own words.
 fn ipc(what: &'static str) -> impl Fn(&dyn std::fmt::Debug) -> BridgeError {
-    move |e| BridgeError::Ipc { what, detail: format!("{e:?}") }
+    move |e| {
+        let detail = format!("{e:?}");
+        if detail.contains("InsufficientPermissions") {
+            BridgeError::PermissionDenied { what }
+        } else {
+            BridgeError::Ipc { what, detail }
+        }
+    }
 }
 
 /// Service names of run `run`: `armature/<run>/trajectory`, `armature/<run>/progress`.
@@ -164,7 +200,7 @@ fn services(
         .history_size(s.history)
         .subscriber_max_buffer_size(s.subscriber_buffer)
         .max_subscribers(s.max_subscribers)
-        .max_publishers(2)
+        .max_publishers(1)
         .enable_safe_overflow(true)
         .open_or_create()
         .map_err(|e| ipc("opening the trajectory service")(&e))?;
@@ -174,7 +210,7 @@ fn services(
         .history_size(s.history)
         .subscriber_max_buffer_size(s.subscriber_buffer.max(64))
         .max_subscribers(s.max_subscribers)
-        .max_publishers(2)
+        .max_publishers(1)
         .enable_safe_overflow(true)
         .open_or_create()
         .map_err(|e| ipc("opening the progress service")(&e))?;
@@ -247,12 +283,18 @@ impl TrajectoryPublisher {
             .allocation_strategy(AllocationStrategy::Static)
             .max_loaned_samples(2)
             .create()
-            .map_err(|e| ipc("creating the trajectory publisher")(&e))?;
-        let progress = s
-            .progress
-            .publisher_builder()
-            .create()
-            .map_err(|e| ipc("creating the progress publisher")(&e))?;
+            .map_err(|e| match e {
+                PublisherCreateError::ExceedsMaxSupportedPublishers => {
+                    BridgeError::RunBusy { run: run.to_string() }
+                }
+                e => ipc("creating the trajectory publisher")(&e),
+            })?;
+        let progress = s.progress.publisher_builder().create().map_err(|e| match e {
+            PublisherCreateError::ExceedsMaxSupportedPublishers => {
+                BridgeError::RunBusy { run: run.to_string() }
+            }
+            e => ipc("creating the progress publisher")(&e),
+        })?;
         let trajectory_event = s
             .trajectory_event
             .notifier_builder()
@@ -530,13 +572,29 @@ impl TrajectorySubscriber {
             .subscriber_builder()
             .buffer_size(settings.subscriber_buffer)
             .create()
-            .map_err(|e| ipc("creating the trajectory subscriber")(&e))?;
+            .map_err(|e| match e {
+                SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+                    BridgeError::TooManyListeners {
+                        run: run.to_string(),
+                        max: settings.max_subscribers,
+                    }
+                }
+                e => ipc("creating the trajectory subscriber")(&e),
+            })?;
         let progress = s
             .progress
             .subscriber_builder()
             .buffer_size(settings.subscriber_buffer.max(64))
             .create()
-            .map_err(|e| ipc("creating the progress subscriber")(&e))?;
+            .map_err(|e| match e {
+                SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+                    BridgeError::TooManyListeners {
+                        run: run.to_string(),
+                        max: settings.max_subscribers,
+                    }
+                }
+                e => ipc("creating the progress subscriber")(&e),
+            })?;
         let trajectory_event = s
             .trajectory_event
             .listener_builder()

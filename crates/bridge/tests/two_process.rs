@@ -167,6 +167,27 @@ fn a_killed_subscriber_does_not_block_the_publisher() {
     assert_eq!(t.header().sequence, 200);
 }
 
+/// One publisher per run: a second one is refused (two solves on one run name would
+/// interleave), typed and worded for people; so is a listener past the run's slots. The
+/// run is free again once the first publisher is gone.
+#[test]
+fn a_second_publisher_and_a_listener_past_the_slots_are_typed_errors() {
+    let run = run_name("busy");
+    let settings = BridgeSettings::default();
+    let p = TrajectoryPublisher::new(&run, &settings).unwrap();
+    let err = TrajectoryPublisher::new(&run, &settings).unwrap_err();
+    assert!(matches!(&err, BridgeError::RunBusy { run: r } if *r == run), "{err:?}");
+    assert!(err.to_string().contains("already being streamed"), "{err}");
+    let subs: Vec<_> = (0..settings.max_subscribers)
+        .map(|_| TrajectorySubscriber::new(&run, &settings).unwrap())
+        .collect();
+    let err = TrajectorySubscriber::new(&run, &settings).unwrap_err();
+    assert!(matches!(err, BridgeError::TooManyListeners { max: 4, .. }), "{err:?}");
+    assert!(err.to_string().contains("4 listeners"), "{err}");
+    drop((p, subs));
+    assert!(TrajectoryPublisher::new(&run, &settings).is_ok());
+}
+
 #[test]
 fn oversized_payloads_and_bad_names_are_errors_with_sizes() {
     let run = run_name("big");

@@ -16,6 +16,7 @@ pub mod robot_dynamics;
 pub mod settings;
 pub mod streaming;
 pub mod task;
+pub mod toml_string;
 pub mod view;
 
 /// Command-line arguments of the `armature` binary.

@@ -448,7 +448,7 @@ fn orientation_ranges(
         let deg = *o.tolerance_deg.get_ref();
         if !(deg.is_finite() && deg > 0.0 && deg < 180.0) {
             return Err(
-                src.error(&o.tolerance_deg, format!("tolerance_deg {deg} must be in (0, 180)"))
+                src.error(&o.tolerance_deg, format!("tolerance_deg {deg:e} must be in (0, 180)"))
             );
         }
         let (a, b) = (node_of(waypoints, &o.from, src)?, node_of(waypoints, &o.to, src)?);

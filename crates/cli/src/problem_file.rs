@@ -300,10 +300,11 @@ pub fn parse(src: Source<'_>) -> Result<ProblemFile, LocatedError> {
 fn expr_error(src: Source<'_>, at: &Spanned<String>, e: SymbolicError) -> LocatedError {
     match e {
         SymbolicError::Parse { message, column, source_text, .. } => {
-            // The value starts with its quote; offsets are exact for strings without escapes.
-            let byte =
-                source_text.char_indices().nth(column - 1).map_or(source_text.len(), |(b, _)| b);
-            src.error_at(at.span().start + 1 + byte, format!("{message} in \"{source_text}\""))
+            // The column counts characters of the parsed value; the file may write them
+            // with escapes.
+            let raw = &src.text[at.span()];
+            let byte = crate::toml_string::raw_offset(raw, column.saturating_sub(1));
+            src.error_at(at.span().start + byte, format!("{message} in \"{source_text}\""))
         }
         other => src.error(at, other.to_string()),
     }
@@ -663,8 +664,8 @@ pub fn is_problem(text: &str) -> bool {
 }
 
 /// A problem-layer error of the problem built from `file`, located at the item it names: a
-/// state's or control's `name`, a state's `dynamics`, a constraint's `expr`; the file's start
-/// when it names none of them.
+/// state's or control's `name`, a state's `dynamics`, a constraint's `expr`, `[time]`, a
+/// setting; the file's start when it names none of them.
 pub fn locate(
     file: &ProblemFile,
     src: Source<'_>,
@@ -692,8 +693,10 @@ pub fn locate(
             .iter()
             .find(|c| c.name.as_deref() == Some(name.as_str()) || *c.expr.get_ref() == name)
             .map(|c| c.expr.span().start)
+    } else if what == "time" {
+        file.time.max.as_ref().or(file.time.fixed.as_ref()).map(|t| t.span().start)
     } else {
-        None
+        crate::settings::setting_span(src.text, what)
     };
     src.error_at(at.unwrap_or(0), e.to_string())
 }

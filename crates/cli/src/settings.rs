@@ -44,6 +44,13 @@ pub fn key_span(text: &str, path: &[&str]) -> Option<Range<usize>> {
     found
 }
 
+/// Where `[settings]` gives the setting a problem-layer error names (`what`, a dotted
+/// field path such as `discretization.substeps`), if it does.
+pub fn setting_span(text: &str, what: &str) -> Option<usize> {
+    let path: Vec<&str> = std::iter::once("settings").chain(what.split('.')).collect();
+    key_span(text, &path).filter(|_| has_key(text, &path)).map(|r| r.start)
+}
+
 /// Whether the document has a value at `path` (keys from the root).
 pub fn has_key(text: &str, path: &[&str]) -> bool {
     let Ok(root) = DeTable::parse(text) else { return false };

@@ -36,6 +36,17 @@ pub fn wire_status(s: PtrStatus) -> Status {
     }
 }
 
+/// A bridge error as the CLI's: what the user asked for that cannot be (a bad run name, a
+/// run another process streams) is bad input (exit 2); the machine's state (permissions on
+/// iceoryx2's shared files, a run's listener slots full, other iceoryx2 failures) exit 4.
+pub fn bridge_error(context: &str, e: BridgeError) -> crate::CliError {
+    let code = match e {
+        BridgeError::BadRunName(_) | BridgeError::RunBusy { .. } => crate::exit::BAD_INPUT,
+        _ => crate::exit::IO,
+    };
+    crate::CliError { message: format!("{context}{e}"), code }
+}
+
 impl Streamer {
     /// A streamer for run `run`; `keypoints` are the chain's keypoint names.
     ///

@@ -121,7 +121,16 @@ fn expression_errors_point_at_their_character_in_the_file() {
         &format!("{l}:17"),
         "unknown name 'w'",
     );
+    // Escapes before the error: the column is the character's in the file, not in the
+    // parsed string (`\u0076` is six characters of the file and one of the value).
     let l = line("expr = \"abs(v) <= v_max\"");
+    bad(
+        "escaped",
+        "expr = \"abs(v) <= v_max\"",
+        "expr = \"abs(\\u0076) <= v_max + \\\"q\\\" \"",
+        &format!("{l}:32"),
+        "unexpected character '\"'",
+    );
     bad(
         "syntax",
         "expr = \"abs(v) <= v_max\"",
@@ -257,4 +266,18 @@ fn problem_layer_errors_are_located_at_their_item() {
         assert!(stderr.contains(reason), "case {i}: {stderr}");
         assert!(stderr.contains(&format!("problem.toml:{line}:")), "case {i} at {line}: {stderr}");
     }
+}
+
+/// A solve whose integration fails (Dormand–Prince tolerances it cannot meet) is an error
+/// located at the integrator setting, and writes nothing.
+#[test]
+fn an_integration_that_fails_is_located_at_the_integrator_setting() {
+    let l = PROBLEM.lines().position(|l| l.starts_with("max_iterations = 150")).unwrap() + 2;
+    bad(
+        "dormand-prince",
+        "max_iterations = 150",
+        "max_iterations = 150\ndiscretization.integrator = { dormand_prince = { rtol = 1e-300, atol = 1e-300 } }",
+        &format!("{l}:29"),
+        "Dormand–Prince",
+    );
 }

@@ -197,3 +197,27 @@ fn a_following_listener_that_got_the_final_trajectory_exits_0_on_its_timeout() {
     assert!(stdout.contains("dense"), "{stdout}");
     assert_eq!(out.status.code(), Some(0), "{stdout}");
 }
+
+/// Two solves on one run name: the second is refused before it solves (exit 2, the run
+/// named), so a listener never sees two solves interleaved; the first is unaffected.
+#[test]
+fn a_second_solve_streaming_on_a_busy_run_is_refused() {
+    let run = format!("cli-busy-{}", std::process::id());
+    let dir = scratch("busy");
+    let first_out = dir.path().join("first.json");
+    let mut first = bin()
+        .args(["demo", "--stream", &run, "--linger", "60", "-o", first_out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let _rest = wait_for(&mut first, "streaming on");
+    let second_out = dir.path().join("second.json");
+    let (code, _, stderr) =
+        armature(&["demo", "-q", "--stream", &run, "-o", second_out.to_str().unwrap()]);
+    first.kill().ok();
+    first.wait().ok();
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains(&format!("run '{run}' is already being streamed")), "{stderr}");
+    assert!(!second_out.exists(), "the refused solve wrote its result");
+}

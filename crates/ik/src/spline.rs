@@ -74,13 +74,22 @@ impl JointSpline {
                 path[0].len()
             )));
         }
+        // The lengths are proportions: measured against the limits relative to the largest
+        // (so limits of any common scale give the same finite knots).
+        let v_top = v_max.iter().copied().fold(0.0, f64::max);
         let mut d: Vec<f64> = path
             .windows(2)
             .map(|w| {
-                (0..v_max.len()).map(|j| (w[1][j] - w[0][j]).abs() / v_max[j]).fold(0.0, f64::max)
+                let step = |j: usize| (w[1][j] - w[0][j]).abs() / (v_max[j] / v_top);
+                (0..v_max.len()).map(step).fold(0.0, f64::max)
             })
             .collect();
         let total: f64 = d.iter().sum();
+        if !total.is_finite() {
+            return Err(IkError::BadKeyframes(
+                "v_max: the limits differ too much (the steps overflow against them)".into(),
+            ));
+        }
         let floor = 0.05 * total.max(1e-9) / d.len() as f64;
         d.iter_mut().for_each(|v| *v = v.max(floor));
         let total: f64 = d.iter().sum();
@@ -275,6 +284,11 @@ mod tests {
         }
         assert!(JointSpline::through_timed(&path, &[1.0, 0.0, 1.0]).is_err());
         assert!(JointSpline::time_optimal_knots(&path, &[1.0]).is_err());
+        // Proportions: limits of any common scale give the same knots, even 1e-308.
+        let tiny = JointSpline::time_optimal_knots(&path, &[1e-308, 1e-308]).unwrap();
+        assert!(tiny.iter().zip(&h).all(|(a, b)| (a - b).abs() < 1e-12), "{tiny:?}");
+        // Limits too far apart for the steps to be measured: an error, not NaN knots.
+        assert!(JointSpline::time_optimal_knots(&path, &[1e-308, 1e10]).is_err());
     }
 
     #[test]

@@ -20,7 +20,8 @@ pub use problem::{
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
     DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
-    DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS,
+    DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS, MAX_GRID_STEPS,
+    MAX_SUBSTEPS,
 };
 pub use ipm::IpmSettings;
 pub use problem::CompiledProblem;

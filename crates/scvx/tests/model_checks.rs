@@ -62,6 +62,21 @@ fn what_sizes_memory_is_capped_with_the_setting_named() {
     assert!(e.contains("dense_dt"), "{e}");
     let p = Problem { nodes: armature_scvx::MAX_NODES + 1, ..problem(|_, a| a.clone()) };
     assert!(refused(p).contains("nodes"));
+    // A maximum so long that 5·max overflows: the samples it would take, not a NaN bound.
+    let mut p = problem(|_, a| a.clone());
+    p.time = Time::Free { min: 0.0, max: 1e308, guess: 3.0, minimize: true };
+    let e = refused(p);
+    assert!(e.contains("time") && e.contains("samples"), "{e}");
+    // Integration steps: per segment, and over the whole horizon.
+    let mut settings = PtrSettings::default();
+    settings.discretization.substeps = armature_scvx::MAX_SUBSTEPS + 1;
+    let e = problem(|_, a| a.clone()).compile(settings).err().unwrap().to_string();
+    assert!(e.contains("substeps"), "{e}");
+    let mut settings = PtrSettings::default();
+    settings.discretization.substeps = armature_scvx::MAX_SUBSTEPS;
+    let p = Problem { nodes: armature_scvx::MAX_NODES, ..problem(|_, a| a.clone()) };
+    let e = p.compile(settings).err().unwrap().to_string();
+    assert!(e.contains("substeps") && e.contains("200000"), "{e}");
 }
 
 /// The subproblem's KKT factor grows linearly with the nodes: the final-time bounds, a row

@@ -17,7 +17,7 @@ pub struct ListenArgs {
     /// Exit after the first trajectory.
     #[arg(long)]
     pub once: bool,
-    /// One JSON object per line per trajectory: `{"sequence", "iteration", "status",
+    /// One JSON object per line per trajectory: `{"run_id", "sequence", "iteration", "status",
     /// "final_time", "dense", "columns", "rows"}` (progress is not printed).
     #[arg(long)]
     pub json: bool,
@@ -48,7 +48,7 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
         )));
     }
     let sub = TrajectorySubscriber::new(&args.run, &BridgeSettings::default())
-        .map_err(CliError::bad_input)?;
+        .map_err(|e| crate::streaming::bridge_error("", e))?;
     let _ = writeln!(
         std::io::stderr(),
         "listening on armature/{0}/trajectory and armature/{0}/progress",
@@ -61,9 +61,8 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut got_final = false;
     loop {
         let slice = Duration::from_millis(200);
-        let (progress, trajectory) = sub
-            .receive_any_timeout(slice)
-            .map_err(|e| CliError { message: e.to_string(), code: exit::BAD_INPUT })?;
+        let (progress, trajectory) =
+            sub.receive_any_timeout(slice).map_err(|e| crate::streaming::bridge_error("", e))?;
         if let Some(p) = progress {
             last = Instant::now();
             if !args.json {
@@ -92,6 +91,7 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
             if args.json {
                 let rows: Vec<&[f64]> = t.iter_rows().collect();
                 let line = json!({
+                    "run_id": h.run_id,
                     "sequence": h.sequence,
                     "iteration": h.iteration,
                     "status": status,

@@ -95,11 +95,45 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
-    let compiled = plan.compile().map_err(|e| CliError::bad_input(format!("{}: {e}", src.name)))?;
+    let compiled = plan.compile().map_err(|e| CliError::bad_input(locate(&task, src, &e)))?;
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
     let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
     Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs })
+}
+
+/// A problem-layer error of a planned task (the task's checks let few through): at the
+/// `[time]` maximum or the setting it names, else at the file's start.
+fn locate(
+    task: &crate::task::TaskFile,
+    src: Source<'_>,
+    e: &armature_scvx::ProblemError,
+) -> crate::task::LocatedError {
+    use armature_scvx::ProblemError;
+    let what = match e {
+        ProblemError::Bad { what, .. } | ProblemError::Symbolic { what, .. } => what.as_str(),
+        _ => "",
+    };
+    let at = match what {
+        "time" | "dilation" => Some(task.time.max.span().start),
+        _ => crate::settings::setting_span(src.text, what),
+    };
+    src.error_at(at.unwrap_or(0), e.to_string())
+}
+
+/// An error of the solve itself, located: an integration that fails (Dormand–Prince
+/// tolerances it cannot meet, a state that stops being finite) at `[settings]`'s integrator
+/// where the file chose one, else at the file's start.
+fn solve_error(src: Source<'_>, e: &armature_scvx::ProblemError) -> crate::task::LocatedError {
+    use armature_scvx::{ProblemError, PtrError};
+    let at = match e {
+        ProblemError::Ptr(PtrError::Discretization(_)) => {
+            crate::settings::setting_span(src.text, "discretization.integrator")
+                .or_else(|| crate::settings::setting_span(src.text, "discretization"))
+        }
+        _ => None,
+    };
+    src.error_at(at.unwrap_or(0), format!("the solve failed: {e}"))
 }
 
 /// Checks the destinations `o` names before solving (see [`crate::output_set`]).
@@ -164,8 +198,8 @@ fn start_stream(o: &OutputArgs, keypoints: &[String]) -> Result<Option<Streamer>
             o.linger
         )));
     }
-    let s =
-        Streamer::new(run, keypoints).map_err(|e| CliError::bad_input(format!("--stream: {e}")))?;
+    let s = Streamer::new(run, keypoints)
+        .map_err(|e| crate::streaming::bridge_error("--stream: ", e))?;
     say(o.quiet, &format!("streaming on armature/{run}/trajectory and armature/{run}/progress"));
     Ok(Some(s))
 }
@@ -175,7 +209,7 @@ fn start_stream(o: &OutputArgs, keypoints: &[String]) -> Result<Option<Streamer>
 fn solve_observed(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
-    quiet: bool,
+    (src, quiet): (Source<'_>, bool),
 ) -> Result<(Solution, Vec<Iterate>), CliError> {
     if !quiet {
         let _ = IterationTable::header(&mut std::io::stderr());
@@ -213,7 +247,7 @@ fn solve_observed(
                 }
             }
         })
-        .map_err(CliError::bad_input)?;
+        .map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
     if let Some(e) = stream_error {
         // Streaming the iterates failed: the solve went on, its result is still written.
         say(quiet, &format!("warning: --stream stopped: {e}"));
@@ -329,7 +363,7 @@ pub fn run_task(
     check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
-    let (solution, iterates) = solve_observed(&mut loaded, &mut streamer, o.quiet)?;
+    let (solution, iterates) = solve_observed(&mut loaded, &mut streamer, (src, o.quiet))?;
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
     }

@@ -88,6 +88,13 @@ fn default_atol() -> f64 {
     1e-10
 }
 
+/// Most RK4 steps per segment ([`DiscretizationSettings::substeps`]).
+pub const MAX_SUBSTEPS: usize = 1_000;
+
+/// Most integration steps of a whole horizon, `(N − 1)·substeps`: the grid's sensitivities
+/// and grid-point rows grow with it.
+pub const MAX_GRID_STEPS: usize = 200_000;
+
 /// Steps one Dormand–Prince segment may take before the discretization gives up.
 pub const MAX_ADAPTIVE_STEPS: usize = 100_000;
 

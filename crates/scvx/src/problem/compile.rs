@@ -43,23 +43,36 @@ impl Problem {
         if !(2..=MAX_NODES).contains(&nn) {
             return Err(bad("nodes", format!("need 2 to {MAX_NODES}, got {nn}")));
         }
+        if (nn - 1).saturating_mul(settings.discretization.substeps) > crate::MAX_GRID_STEPS {
+            return Err(bad(
+                "discretization.substeps",
+                format!(
+                    "{} per segment over {} segments: at most {} steps in all",
+                    settings.discretization.substeps,
+                    nn - 1,
+                    crate::MAX_GRID_STEPS
+                ),
+            ));
+        }
         self.check_variables()?;
-        let dilation = self.check_time()?;
         let longest = match self.time {
             Time::Fixed(t) => t,
             Time::Free { max, .. } => max,
         };
+        // Before the time's own checks: a maximum too long to sample is the clearer error.
         if longest / settings.dense_dt > MAX_DENSE_SAMPLES as f64 {
             return Err(bad(
-                "dense_dt",
+                "time",
                 format!(
-                    "{} s would take up to {:.0} samples for a final time of up to {longest} s; \
-                     at most {MAX_DENSE_SAMPLES} (raise dense_dt or lower the time's maximum)",
+                    "a final time of up to {longest:.4e} s at dense_dt {:.4e} s would take \
+                     {:.4e} samples of the dense trajectory; at most {MAX_DENSE_SAMPLES} (lower \
+                     the time's maximum or raise dense_dt)",
                     settings.dense_dt,
                     longest / settings.dense_dt
                 ),
             ));
         }
+        let dilation = self.check_time()?;
         let Timed { groups, group_names, nodal_specs, continuous } = self.sort_constraints()?;
         let Augmented { dynamics, state_exprs, control_exprs, n_named } =
             self.augmented_dynamics(&groups)?;

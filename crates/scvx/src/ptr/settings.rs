@@ -59,7 +59,8 @@ pub struct PtrSettings {
     pub discretization: DiscretizationSettings,
     /// Settings of the convex subproblems' solvers.
     pub subproblem: SubproblemSettings,
-    /// Time step of the dense propagation in post-processing (s). Default 0.01.
+    /// Time step of the dense propagation in post-processing (s), 1e-6 to 1 (the dense
+    /// checks between the nodes see nothing coarser). Default 0.01.
     pub dense_dt: f64,
     /// Largest violation of a continuous-time constraint on the dense trajectory that a
     /// converged solve may keep (in the constraint's units; default 1e-4): above it the
@@ -218,8 +219,8 @@ impl PtrSettings {
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be at least 1");
         }
-        if self.discretization.substeps == 0 {
-            return bad("discretization.substeps", "must be at least 1");
+        if !(1..=crate::MAX_SUBSTEPS).contains(&self.discretization.substeps) {
+            return bad("discretization.substeps", "must be 1 to 1000");
         }
         if let crate::Integrator::DormandPrince { rtol, atol } = self.discretization.integrator
             && !(rtol.is_finite() && rtol > 0.0 && atol.is_finite() && atol > 0.0)
@@ -268,6 +269,9 @@ impl PtrSettings {
         }
         if self.lam_vc > self.lam_vc_max || self.lam_vb > self.lam_vc_max {
             return bad("lam_vc_max", "must be at least lam_vc and lam_vb");
+        }
+        if !(1e-6..=1.0).contains(&self.dense_dt) {
+            return bad("dense_dt", "must be 1e-6 to 1 s");
         }
         Ok(())
     }
