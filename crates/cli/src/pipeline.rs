@@ -230,7 +230,12 @@ fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, Lo
             ));
         }
     };
-    Ok(Initialization { mode, restarts: task.initialization.restarts })
+    let restarts = &task.initialization.restarts;
+    if *restarts.get_ref() > armature_ik::MAX_RESTARTS {
+        let max = armature_ik::MAX_RESTARTS;
+        return Err(src.error(restarts, format!("restarts {}: at most {max}", restarts.get_ref())));
+    }
+    Ok(Initialization { mode, restarts: *restarts.get_ref() })
 }
 
 /// `[robot]`'s velocity and torque limits (the robot's own where not given).

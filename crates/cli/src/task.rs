@@ -408,14 +408,15 @@ pub struct InitSpec {
     #[serde(default = "sequential")]
     #[schemars(with = "String")]
     pub ik: Spanned<String>,
-    /// IK random restarts per node. Default 8.
+    /// IK random restarts per node (at most 1,000). Default 8.
     #[serde(default = "eight")]
-    pub restarts: usize,
+    #[schemars(with = "usize")]
+    pub restarts: Spanned<usize>,
 }
 
 impl Default for InitSpec {
     fn default() -> Self {
-        InitSpec { ik: sequential(), restarts: 8 }
+        InitSpec { ik: sequential(), restarts: eight() }
     }
 }
 
@@ -423,8 +424,8 @@ fn sequential() -> Spanned<String> {
     Spanned::new(0..0, "sequential".into())
 }
 
-fn eight() -> usize {
-    8
+fn eight() -> Spanned<usize> {
+    Spanned::new(0..0, 8)
 }
 
 /// A located array of exactly `N` values (a longer or shorter list is an error at the value,

@@ -76,6 +76,10 @@ fn single_target_converges_or_reports_best_effort() {
     let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["converged"], false);
     assert!((v["position_error"].as_f64().unwrap() / 1e300 - 1.0).abs() < 1e-6, "{v}");
+    // Restarts size the time an unreachable target takes: capped, bad input above the cap.
+    let (code, _, err) = armature(&["ik", "--pos", "2,0,0", "--restarts", "1000000000"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--restarts 1000000000: at most 1000"), "{err}");
 }
 
 #[test]

@@ -585,3 +585,20 @@ fn walk(d: &std::path::Path) -> Vec<std::path::PathBuf> {
     }
     files
 }
+
+/// What sizes the initialization's time is capped, at the key: IK restarts per node.
+#[test]
+fn ik_restarts_above_their_cap_are_located() {
+    let text = format!("{TASK}\n[initialization]\nrestarts = 1000000000\n");
+    let line = text.lines().count();
+    let path = temp_file("restarts", "task.toml", &text);
+    let out = path.with_file_name("out.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains(&format!("task.toml:{line}:12: restarts 1000000000: at most 1000")),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

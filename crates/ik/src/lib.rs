@@ -11,6 +11,7 @@ pub use interpolation::{
     IkTrajectory, Keyframe, MAX_KEYFRAME_NODE, Mode, ik_interpolation, interpolate_targets,
 };
 pub use solver::{
-    IkResult, IkSettings, IkWorkspace, LOCAL_RESTART_STEP, LOCAL_RESTARTS, Nullspace, Target, solve,
+    IkResult, IkSettings, IkWorkspace, LOCAL_RESTART_STEP, LOCAL_RESTARTS, MAX_IK_ITERATIONS,
+    MAX_RESTARTS, Nullspace, Target, solve,
 };
 pub use spline::JointSpline;

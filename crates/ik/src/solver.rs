@@ -111,8 +111,11 @@ impl IkSettings {
                 return bad(field, "must be a positive finite number");
             }
         }
-        if self.max_iterations == 0 {
-            return bad("max_iterations", "must be at least 1");
+        if !(1..=MAX_IK_ITERATIONS).contains(&self.max_iterations) {
+            return bad("max_iterations", "must be 1 to 100000");
+        }
+        if self.restarts > MAX_RESTARTS {
+            return bad("restarts", "must be at most 1000");
         }
         if !(self.min_damping <= self.damping && self.damping <= self.max_damping) {
             return bad("damping", "must lie between min_damping and max_damping");
@@ -239,6 +242,13 @@ fn cholesky6_solve(l: &[[f64; 6]; 6], b: &Vector6<f64>) -> Vector6<f64> {
     }
     x
 }
+
+/// Most restarts an IK solve makes ([`IkSettings::restarts`]): each costs up to
+/// `max_iterations` FK evaluations, so the cap bounds the time an unreachable target takes.
+pub const MAX_RESTARTS: usize = 1_000;
+
+/// Most iterations of one IK attempt ([`IkSettings::max_iterations`]).
+pub const MAX_IK_ITERATIONS: usize = 100_000;
 
 /// The first this-many restarts perturb the seed (by up to `LOCAL_RESTART_STEP · k` rad per
 /// joint on restart `k`); later restarts draw uniformly within the limits (∩ [−π, π]).

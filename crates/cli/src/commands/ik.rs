@@ -31,7 +31,7 @@ pub struct IkArgs {
     /// Seed joint values (default: zeros).
     #[arg(long, allow_hyphen_values = true)]
     pub seed: Option<String>,
-    /// Random restarts when an attempt does not converge.
+    /// Random restarts when an attempt does not converge (at most 1,000).
     #[arg(long, default_value_t = 8)]
     pub restarts: usize,
     /// A TOML file of keyframes (`[[keyframes]] node, position, quaternion_wxyz`; optional
@@ -66,6 +66,13 @@ fn print(out: &mut dyn std::io::Write, v: &serde_json::Value) -> Result<(), CliE
 /// # Errors
 /// Bad robot, target, seed or keyframe file; output failures; not converged.
 pub fn run(args: &IkArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> {
+    if args.restarts > armature_ik::MAX_RESTARTS {
+        return Err(CliError::bad_input(format!(
+            "--restarts {}: at most {}",
+            args.restarts,
+            armature_ik::MAX_RESTARTS
+        )));
+    }
     let chain = args.robot.load()?;
     let settings = IkSettings { restarts: args.restarts, ..IkSettings::default() };
     let mut seed = match &args.seed {
