@@ -122,6 +122,32 @@ fn ipc(what: &'static str) -> impl Fn(&dyn std::fmt::Debug) -> BridgeError {
     }
 }
 
+/// A publisher's creation error: the run's one publisher slot taken is [`BridgeError::RunBusy`].
+fn publisher_error(run: &str, what: &'static str) -> impl Fn(PublisherCreateError) -> BridgeError {
+    move |e| match e {
+        PublisherCreateError::ExceedsMaxSupportedPublishers => {
+            BridgeError::RunBusy { run: run.to_string() }
+        }
+        e => ipc(what)(&e),
+    }
+}
+
+/// A subscriber's creation error: the run's listener slots full is
+/// [`BridgeError::TooManyListeners`].
+fn subscriber_error(
+    run: &str,
+    settings: &BridgeSettings,
+    what: &'static str,
+) -> impl Fn(SubscriberCreateError) -> BridgeError {
+    let max = settings.max_subscribers;
+    move |e| match e {
+        SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+            BridgeError::TooManyListeners { run: run.to_string(), max }
+        }
+        e => ipc(what)(&e),
+    }
+}
+
 /// Service names of run `run`: `armature/<run>/trajectory`, `armature/<run>/progress`.
 ///
 /// # Errors
@@ -283,18 +309,12 @@ impl TrajectoryPublisher {
             .allocation_strategy(AllocationStrategy::Static)
             .max_loaned_samples(2)
             .create()
-            .map_err(|e| match e {
-                PublisherCreateError::ExceedsMaxSupportedPublishers => {
-                    BridgeError::RunBusy { run: run.to_string() }
-                }
-                e => ipc("creating the trajectory publisher")(&e),
-            })?;
-        let progress = s.progress.publisher_builder().create().map_err(|e| match e {
-            PublisherCreateError::ExceedsMaxSupportedPublishers => {
-                BridgeError::RunBusy { run: run.to_string() }
-            }
-            e => ipc("creating the progress publisher")(&e),
-        })?;
+            .map_err(publisher_error(run, "creating the trajectory publisher"))?;
+        let progress = s
+            .progress
+            .publisher_builder()
+            .create()
+            .map_err(publisher_error(run, "creating the progress publisher"))?;
         let trajectory_event = s
             .trajectory_event
             .notifier_builder()
@@ -572,29 +592,13 @@ impl TrajectorySubscriber {
             .subscriber_builder()
             .buffer_size(settings.subscriber_buffer)
             .create()
-            .map_err(|e| match e {
-                SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
-                    BridgeError::TooManyListeners {
-                        run: run.to_string(),
-                        max: settings.max_subscribers,
-                    }
-                }
-                e => ipc("creating the trajectory subscriber")(&e),
-            })?;
+            .map_err(subscriber_error(run, settings, "creating the trajectory subscriber"))?;
         let progress = s
             .progress
             .subscriber_builder()
             .buffer_size(settings.subscriber_buffer.max(64))
             .create()
-            .map_err(|e| match e {
-                SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
-                    BridgeError::TooManyListeners {
-                        run: run.to_string(),
-                        max: settings.max_subscribers,
-                    }
-                }
-                e => ipc("creating the progress subscriber")(&e),
-            })?;
+            .map_err(subscriber_error(run, settings, "creating the progress subscriber"))?;
         let trajectory_event = s
             .trajectory_event
             .listener_builder()

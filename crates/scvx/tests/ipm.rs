@@ -182,6 +182,27 @@ fn solve_both(
     (ipm, status, reference)
 }
 
+/// `ipm`'s solution carries its own certificate, recomputed from the data (feasible,
+/// stationary, complementary), and agrees with Clarabel's where Clarabel solves the problem
+/// (where it reaches its iteration cap, the certificate stands alone).
+fn certified_and_agreeing(
+    pr: &Problem,
+    ipm: &InteriorPoint,
+    reference: Option<(Vec<f64>, f64)>,
+) -> Result<(), TestCaseError> {
+    let (primal, dual, gap, inside) = certificate(pr, ipm);
+    let xn = ipm.x().iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    prop_assert!(primal < 1e-8 * xn && dual < 1e-8 * xn, "residuals {primal:e} {dual:e}");
+    prop_assert!(gap.abs() < 1e-6 && inside, "gap {gap:e}, in the cones: {inside}");
+    if let Some((x, obj)) = reference {
+        for (a, b) in ipm.x().iter().zip(&x) {
+            prop_assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{:?} vs {:?}", ipm.x(), x);
+        }
+        prop_assert!((ipm.objective() - obj).abs() < 1e-6 * (1.0 + obj.abs()));
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     #[test]
@@ -189,19 +210,7 @@ proptest! {
         // Both at 1e-9: the minimizer is then pinned to about 1e-4 (|Δx|² ≲ 2·gap, P ⪰ I).
         let (ipm, status, reference) = solve_both(&pr, settings(1e-9));
         prop_assert_eq!(status, IpmStatus::Solved);
-        // Its own certificate, recomputed from the data: feasible, stationary, complementary.
-        let (primal, dual, gap, inside) = certificate(&pr, &ipm);
-        let xn = ipm.x().iter().fold(1.0f64, |a, v| a.max(v.abs()));
-        prop_assert!(primal < 1e-8 * xn && dual < 1e-8 * xn, "residuals {primal:e} {dual:e}");
-        prop_assert!(gap.abs() < 1e-6 && inside, "gap {gap:e}, in the cones: {inside}");
-        // Clarabel's answer, where Clarabel solves the problem (where it reaches its
-        // iteration cap, the certificate above stands alone).
-        if let Some((x, obj)) = reference {
-            for (a, b) in ipm.x().iter().zip(&x) {
-                prop_assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{:?} vs {:?}", ipm.x(), x);
-            }
-            prop_assert!((ipm.objective() - obj).abs() < 1e-6 * (1.0 + obj.abs()));
-        }
+        certified_and_agreeing(&pr, &ipm, reference)?;
     }
 }
 
@@ -228,16 +237,7 @@ proptest! {
             ipm
         };
         prop_assert_eq!(ipm.solve(&pv, &pr.q, &av, &pr.b), IpmStatus::Solved);
-        let (primal, dual, gap, inside) = certificate(&pr, &ipm);
-        let xn = ipm.x().iter().fold(1.0f64, |a, v| a.max(v.abs()));
-        prop_assert!(primal < 1e-8 * xn && dual < 1e-8 * xn, "residuals {primal:e} {dual:e}");
-        prop_assert!(gap.abs() < 1e-6 && inside, "gap {gap:e}, in the cones: {inside}");
-        if let Some((x, obj)) = reference {
-            for (a, b) in ipm.x().iter().zip(&x) {
-                prop_assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{:?} vs {:?}", ipm.x(), x);
-            }
-            prop_assert!((ipm.objective() - obj).abs() < 1e-6 * (1.0 + obj.abs()));
-        }
+        certified_and_agreeing(&pr, &ipm, reference)?;
         // K has one more row per nonnegative row.
         let folded = solve_both(&pr, settings(1e-9)).0;
         prop_assert!(ipm.kkt_nonzeros().0 <= folded.kkt_nonzeros().0 + pr.cones.nonneg * (pr.n + 1));
