@@ -74,16 +74,20 @@ impl JointSpline {
                 path[0].len()
             )));
         }
-        // The lengths are proportions: measured against the limits relative to the largest
-        // (so limits of any common scale give the same finite knots).
-        let v_top = v_max.iter().copied().fold(0.0, f64::max);
-        let mut d: Vec<f64> = path
-            .windows(2)
-            .map(|w| {
-                let step = |j: usize| (w[1][j] - w[0][j]).abs() / (v_max[j] / v_top);
-                (0..v_max.len()).map(step).fold(0.0, f64::max)
-            })
-            .collect();
+        // The lengths are proportions: limits so small that the steps overflow against them
+        // are measured relative to the largest (the same knots for any common scale).
+        let steps = |scale: f64| -> Vec<f64> {
+            path.windows(2)
+                .map(|w| {
+                    let step = |j: usize| (w[1][j] - w[0][j]).abs() / (v_max[j] / scale);
+                    (0..v_max.len()).map(step).fold(0.0, f64::max)
+                })
+                .collect()
+        };
+        let mut d = steps(1.0);
+        if !d.iter().sum::<f64>().is_finite() {
+            d = steps(v_max.iter().copied().fold(0.0, f64::max));
+        }
         let total: f64 = d.iter().sum();
         if !total.is_finite() {
             return Err(IkError::BadKeyframes(
