@@ -11,9 +11,9 @@
 ///
 /// ```
 /// use armature_cli::toml_string::raw_offset;
-/// // "abs(\u0076) + ä": the 'ä' is the 11th character, 16 bytes into the value's source.
+/// // "abs(\u0076) + ä": the 'ä' is the 10th character (index 9) of the value.
 /// let raw = r#""abs(\u0076) + ä""#;
-/// assert_eq!(&raw[raw_offset(raw, 10)..], "ä\"");
+/// assert_eq!(&raw[raw_offset(raw, 9)..], "ä\"");
 /// assert_eq!(raw_offset("'a\\b'", 2), 3);
 /// ```
 pub fn raw_offset(raw: &str, n: usize) -> usize {
