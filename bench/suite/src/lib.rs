@@ -9,4 +9,5 @@
 pub mod generate;
 pub mod reference;
 pub mod run;
+pub mod study;
 pub mod verify;

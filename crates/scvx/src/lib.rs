@@ -21,7 +21,7 @@ pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
     DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
     DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS, MAX_GRID_STEPS,
-    MAX_SUBSTEPS,
+    MAX_SUBSTEPS, SegmentHessianWorkspace,
 };
 pub use ipm::IpmSettings;
 pub use problem::CompiledProblem;

@@ -44,6 +44,19 @@ fn brachistochrone_matches_the_cycloid_with_quasi_newton() {
     });
 }
 
+/// The same with the exact Hessian of the Lagrangian (the dynamics' second-order adjoint)
+/// and the Lagrangian merit.
+#[test]
+fn brachistochrone_matches_the_cycloid_with_the_exact_hessian() {
+    check({
+        let mut s = PtrSettings::default();
+        s.max_iterations = 200;
+        s.exact_hessian = true;
+        s.merit = Merit::Lagrangian { sigma: 0.5 };
+        s
+    });
+}
+
 fn check(settings: PtrSettings) {
     let (xf, yf) = (1.0, 0.6);
     let nodes = 31;

@@ -503,3 +503,105 @@ fn grid_for_other_substeps_is_an_error() {
         "{e}"
     );
 }
+
+fn substeps(sub: usize) -> DiscretizationSettings {
+    let mut settings = DiscretizationSettings::default();
+    settings.substeps = sub;
+    settings
+}
+
+/// `[A | B⁻ | B⁺ (controls)]` of segment `seg`, `n × (n + 2m + 1)`: the map's Jacobian over
+/// `z = [x_k | u_k | s_k | u_{k+1}]`.
+fn segment_jacobian(
+    d: &Dynamics,
+    x: &[f64],
+    u: &[f64],
+    s: &[f64],
+    seg: usize,
+    sub: usize,
+) -> Vec<f64> {
+    let (n, mu) = (d.n_x(), d.n_u());
+    let (m, nz) = (mu + 1, n + 2 * mu + 1);
+    let settings = substeps(sub);
+    let mut out = d.output(s.len());
+    d.discretize(x, u, s, &settings, &mut d.workspace(), &mut out).unwrap();
+    let mut j = vec![0.0; n * nz];
+    for r in 0..n {
+        j[r * nz..r * nz + n].copy_from_slice(&out.a[seg * n * n + r * n..][..n]);
+        j[r * nz + n..r * nz + n + m].copy_from_slice(&out.b_minus[seg * n * m + r * m..][..m]);
+        j[r * nz + n + m..(r + 1) * nz].copy_from_slice(&out.b_plus[seg * n * m + r * m..][..mu]);
+    }
+    j
+}
+
+/// The segment Hessian `yᵀ∂²x_prop/∂z²` (second-order adjoint on the grid) against central
+/// differences of the map's exact Jacobians, on every segment of a nonlinear system with a
+/// gated row; it converges to them as the grid refines (the RK4 map and the exact flow
+/// differ by O(h⁴)).
+#[test]
+fn segment_hessian_matches_differences_of_the_jacobians() {
+    let d = nonlinear().gate(2, 1, 3).unwrap();
+    let (n, mu, nodes) = (3, 2, 4);
+    let nz = n + 2 * mu + 1;
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
+    let s = vec![1.5, 1.2, 2.0, 2.0];
+    let y = [0.7, -1.3, 0.4];
+    let error_at = |sub: usize, seg: usize| {
+        let settings = substeps(sub);
+        let mut out = d.output_with_grid(nodes, sub);
+        d.discretize(&x, &u, &s, &settings, &mut d.workspace(), &mut out).unwrap();
+        let mut h = vec![0.0; nz * nz];
+        let mut ws = d.segment_hessian_workspace();
+        d.segment_hessian(&out, seg, &u, s[seg], &y, &mut ws, &mut h).unwrap();
+        let eps = 1e-5;
+        let (mut worst, mut scale) = (0.0f64, 0.0f64);
+        for c in 0..nz {
+            let shifted = |sign: f64| {
+                let (mut xs, mut us, mut ss) = (x.clone(), u.clone(), s.clone());
+                match c {
+                    c if c < n => xs[seg * n + c] += sign * eps,
+                    c if c < n + mu => us[seg * mu + c - n] += sign * eps,
+                    c if c == n + mu => ss[seg] += sign * eps,
+                    c => us[(seg + 1) * mu + c - n - mu - 1] += sign * eps,
+                }
+                segment_jacobian(&d, &xs, &us, &ss, seg, sub)
+            };
+            let (jp, jm) = (shifted(1.0), shifted(-1.0));
+            for r in 0..nz {
+                let fd: f64 = (0..n).map(|i| y[i] * (jp[i * nz + r] - jm[i * nz + r])).sum::<f64>()
+                    / (2.0 * eps);
+                worst = worst.max((h[c * nz + r] - fd).abs());
+                scale = scale.max(fd.abs());
+                assert!(
+                    (h[c * nz + r] - h[r * nz + c]).abs() <= 1e-12 * (1.0 + h[c * nz + r].abs())
+                );
+            }
+        }
+        worst / scale
+    };
+    for seg in 0..nodes - 1 {
+        let (coarse, fine) = (error_at(4, seg), error_at(40, seg));
+        assert!(fine < 2e-6, "segment {seg}: relative error {fine:e} with 40 substeps");
+        assert!(fine < coarse / 100.0, "segment {seg}: {coarse:e} → {fine:e} does not converge");
+    }
+}
+
+/// Bad calls are errors, not panics: no grid, a segment out of range, a wrong `y`.
+#[test]
+fn segment_hessian_refuses_what_it_cannot_do() {
+    let d = nonlinear();
+    let (x, u, s) = (vec![0.1; 9], vec![0.2; 6], vec![1.0; 3]);
+    let mut ws = d.segment_hessian_workspace();
+    let mut h = vec![0.0; 64];
+    let mut plain = d.output(3);
+    d.discretize(&x, &u, &s, &DiscretizationSettings::default(), &mut d.workspace(), &mut plain)
+        .unwrap();
+    assert!(d.segment_hessian(&plain, 0, &u, 1.0, &[1.0; 3], &mut ws, &mut h).is_err());
+    let mut grid = d.output_with_grid(3, 10);
+    d.discretize(&x, &u, &s, &DiscretizationSettings::default(), &mut d.workspace(), &mut grid)
+        .unwrap();
+    assert!(d.segment_hessian(&grid, 2, &u, 1.0, &[1.0; 3], &mut ws, &mut h).is_err());
+    assert!(d.segment_hessian(&grid, 1, &u, 1.0, &[1.0; 2], &mut ws, &mut h).is_err());
+    assert!(d.segment_hessian(&grid, 1, &u, 1.0, &[1.0; 3], &mut ws, &mut h).is_ok());
+}

@@ -26,9 +26,11 @@
 use armature_symbolic::{Expr, Function, SparsityPattern, SymbolicError, Workspace};
 
 mod dense;
+mod hessian;
 mod integrators;
 mod lanes;
 
+pub use hessian::SegmentHessianWorkspace;
 use integrators::*;
 use lanes::*;
 

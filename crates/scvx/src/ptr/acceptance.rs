@@ -79,11 +79,11 @@ impl Ptr {
     ) -> Result<(), PtrStatus> {
         let t_sub = Instant::now();
         let mut outcome = self.solve_subproblem(st, &set.subproblem, record);
-        if outcome.is_err() && set.quasi_newton && st.hess_ready.iter().any(|&r| r) {
-            // The quasi-Newton blocks made the subproblem too hard for both solvers (a badly
+        if outcome.is_err() && st.curv.model_ready.iter().any(|&r| r) {
+            // The curvature blocks made the subproblem too hard for both solvers (a badly
             // conditioned BFGS block): forget them and solve this iteration first-order.
             st.hess_ready.fill(false);
-            self.fill_p(st, false);
+            self.fill_p(st, false, false);
             if let Some(native) = st.native.as_mut() {
                 native.reset();
             }
@@ -94,12 +94,13 @@ impl Ptr {
         outcome
     }
 
-    fn step_model(&self, st: &Iterate, z: &[f64], qn: bool) -> StepModel {
+    fn step_model(&self, st: &Iterate, z: &[f64], curved: bool) -> StepModel {
         let (n, nv, vb0) = (self.ocp.dynamics.n_x(), self.n_vars, self.vb0);
         let (_, _, vp0, _) = self.layout();
         let mut quad = 0.0;
-        if qn {
-            for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
+        if curved {
+            let blocks = st.curv.model.iter().zip(&st.curv.model_ready);
+            for (el, (h, ready)) in self.elements.iter().zip(blocks) {
                 if *ready {
                     let d = el.cols.len();
                     for a in 0..d {
@@ -134,12 +135,12 @@ impl Ptr {
         for i in 0..vp0 {
             st.zc[i] = st.zbar[i] + z[i];
         }
-        let model = self.step_model(st, z, qn);
+        let model = self.step_model(st, z, qn || set.exact_hessian);
         record.tr_gradient = (0..vp0)
             .map(|c| (2.0 * st.lam_tr * st.inv_s2[c].sqrt() * z[c]).abs())
             .fold(0.0, f64::max);
         // The duals price defects in the Lagrangian merit and weight the quasi-Newton pairs.
-        if qn || matches!(set.merit, Merit::Lagrangian { .. }) {
+        if qn || set.exact_hessian || matches!(set.merit, Merit::Lagrangian { .. }) {
             st.duals.copy_from_slice(&st.sol_z);
         }
         let (m, ms) = self.evaluate(&st.zc, &mut st.dcand, &mut st.ev, (&st.lam_vc, &st.lam_vb))?;

@@ -91,10 +91,15 @@ impl Ptr {
             ocp.nodal.iter().flat_map(|c| c.nodes.iter().copied()).collect();
         let row_elem = row_elements(&v, row, &nodal_rows, &eval_node, &peaks);
         let a = (&a_colptr[..], &a_rowval[..], &sources[..]);
-        let mut elements = if settings.quasi_newton {
+        let mut elements = if settings.quasi_newton || settings.exact_hessian {
             qn_elements(&v, tp, a, &row_elem)
         } else {
             vec![Element { cols: Vec::new(), pidx: Vec::new() }; nn]
+        };
+        let exact = if settings.exact_hessian {
+            curvature::ExactHessian::place(&v, &ocp, &eval_node, &nodal_rows, row, &mut elements)
+        } else {
+            curvature::ExactHessian::default()
         };
         let (p_colptr, p_rowval, p_diag) = p_pattern(vp0, n_vars, &mut elements);
         let dws = ocp.dynamics.workspace();
@@ -125,6 +130,7 @@ impl Ptr {
             p_diag,
             elements,
             row_elem,
+            exact,
             state: None,
         })
     }

@@ -21,6 +21,8 @@ pub(super) struct Iterate {
     /// Per element: its Hessian approximation (`d×d`, row-major) and whether it has one.
     pub(super) hess: Vec<Vec<f64>>,
     pub(super) hess_ready: Vec<bool>,
+    /// The exact nodal curvature and the blocks the subproblem's `P` holds.
+    pub(super) curv: curvature::CurvatureScratch,
     /// Duals of the last subproblem.
     pub(super) duals: Vec<f64>,
     /// Constraint coefficients at the candidate.
@@ -139,6 +141,7 @@ impl Ptr {
             history: Vec::new(),
             hess: self.elements.iter().map(|e| vec![0.0; e.cols.len() * e.cols.len()]).collect(),
             hess_ready: vec![false; self.elements.len()],
+            curv: self.curvature_scratch(),
             duals: vec![0.0; self.b.len()],
             nz_new: vec![0.0; self.a_rowval.len()],
             qn_s: vec![0.0; dmax],

@@ -140,6 +140,9 @@ pub struct Ptr {
     elements: Vec<Element>,
     /// Element of each subproblem row (`usize::MAX`: a row with constant coefficients).
     row_elem: Vec<usize>,
+    /// Where the exact Hessians of the dynamics and the nodal constraints go (empty unless
+    /// `exact_hessian`).
+    exact: curvature::ExactHessian,
     /// The running (or last) solve.
     state: Option<Box<Iterate>>,
 }
@@ -213,9 +216,11 @@ impl Ptr {
 mod acceptance;
 mod backend;
 mod build;
+mod curvature;
 mod evaluate;
 mod iterate;
 mod merit;
+mod psd;
 mod quasi_newton;
 mod report;
 mod rows;

@@ -38,6 +38,11 @@ pub(super) fn damped_bfgs(
 }
 
 impl Ptr {
+    /// A row whose curvature the subproblem has exactly (left out of the BFGS pairs).
+    fn exact_row(&self, row: usize) -> bool {
+        self.exact.exact_rows.get(row).copied().unwrap_or(false)
+    }
+
     pub(super) fn update_hessian(&self, st: &mut Iterate) {
         // The constraint Jacobians at the candidate (its merit needed their values only).
         let (u0, s0, _, _) = self.layout();
@@ -53,7 +58,9 @@ impl Ptr {
             for (a, &c) in el.cols.iter().enumerate() {
                 sv[a] = st.zc[c] - st.zbar[c];
                 gv[a] = (self.a_colptr[c]..self.a_colptr[c + 1])
-                    .filter(|&p| self.row_elem[self.a_rowval[p]] == e)
+                    .filter(|&p| {
+                        self.row_elem[self.a_rowval[p]] == e && !self.exact_row(self.a_rowval[p])
+                    })
                     .map(|p| (st.nz_new[p] - st.nz[p]) * st.duals[self.a_rowval[p]])
                     .sum();
             }

@@ -153,7 +153,7 @@ impl Ptr {
     /// interval bounds).
     pub(super) fn output(&self) -> Discretization {
         let nn = self.ocp.nodes;
-        if self.peaks.is_empty() {
+        if self.peaks.is_empty() && !self.settings.exact_hessian {
             self.ocp.dynamics.output(nn)
         } else {
             self.ocp.dynamics.output_with_grid(nn, self.settings.discretization.substeps)

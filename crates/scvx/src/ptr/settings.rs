@@ -80,6 +80,18 @@ pub struct PtrSettings {
     /// stationary point), at about 1.5× the cost per subproblem and more iterations.
     /// Default false.
     pub quasi_newton: bool,
+    /// Add the exact Hessian of the Lagrangian to the subproblem's objective, one block per
+    /// segment, projected onto the positive-semidefinite cone (eigenvalues clipped at zero):
+    /// the dynamics' `Σ y_i ∇²x_prop,i` over the segment's `x_k, u_k, s_k, u_{k+1}` (the
+    /// second-order adjoint on the integration grid, [`crate::Dynamics::segment_hessian`])
+    /// and the nodal constraints' `Σ y_i ∇²g_i` (symbolic second derivatives), both weighted
+    /// by the last subproblem's duals `y` at the reference. A first-order subproblem cannot
+    /// see that its step leaves a curved constraint at second order (a 7-joint arm's
+    /// configurations that hold a pose form a curve; the dilation multiplies the controls),
+    /// so the merit rejects its long steps and the trust region stops it short of the
+    /// optimum. With `quasi_newton` too, the damped BFGS blocks model what is left (the
+    /// peak rows between the nodes). Default false.
+    pub exact_hessian: bool,
     /// The merit function that accepts or rejects steps. Default [`Merit::ExactPenalty`].
     pub merit: Merit,
 }
@@ -332,6 +344,7 @@ impl Default for PtrSettings {
             dense_tolerance: 1e-4,
             backtracking: true,
             quasi_newton: false,
+            exact_hessian: false,
             merit: Merit::ExactPenalty,
         }
     }

@@ -48,7 +48,7 @@ impl Ptr {
             self.linearize_constraints(st);
         }
         self.fill_objective(st);
-        self.fill_p(st, set.quasi_newton);
+        self.fill_p(st, set.quasi_newton, set.exact_hessian);
         let mut record = Iteration::pending(it, st.tf, st.lam_tr);
         if let Err(status) = self.solve_step(st, set, &mut record) {
             return Ok(self.finish(st, record, status));
@@ -69,26 +69,16 @@ impl Ptr {
     /// Damped BFGS update (Powell) of each element's Hessian approximation from the last
     /// evaluated point `st.zc` (with `st.dcand` and `st.ev` at it) and the reference, with
     /// the last subproblem's duals: `y_e = (A_e(z) − A_e(z̄))ᵀ λ`.
-    /// `P`'s values: the trust-region diagonal, plus the quasi-Newton blocks that are ready
-    /// when `qn`.
-    pub(super) fn fill_p(&self, st: &mut Iterate, qn: bool) {
+    /// `P`'s values: the trust-region diagonal, plus the curvature blocks — the quasi-Newton
+    /// blocks that are ready when `qn`, the exact nodal curvature when `exact`.
+    pub(super) fn fill_p(&self, st: &mut Iterate, qn: bool, exact: bool) {
         st.pvals.fill(0.0);
         for (c, w) in st.inv_s2.iter().enumerate() {
             st.pvals[self.p_diag[c]] = 2.0 * st.lam_tr * w;
         }
-        if !qn {
-            return;
-        }
-        for ((el, h), ready) in self.elements.iter().zip(&st.hess).zip(&st.hess_ready) {
-            if !*ready {
-                continue;
-            }
-            let d = el.cols.len();
-            for a in 0..d {
-                for b in a..d {
-                    st.pvals[el.pidx[a * d + b]] += h[a * d + b];
-                }
-            }
+        st.curv.model_ready.fill(false);
+        if qn || exact {
+            self.fill_curvature(st, qn, exact);
         }
     }
 

@@ -296,3 +296,91 @@ fn damped_bfgs_refuses_a_zero_step() {
     assert!(!damped_bfgs(&mut h, &[0.0, 0.0], &[1.0, 1.0], &mut hs, &mut r));
     assert_eq!(h, vec![1.0, 0.0, 0.0, 1.0]);
 }
+
+/// The exact curvature blocks are the Lagrangian's second derivatives, as the subproblem
+/// assembles them (every column placed, every sign): `Σ_e H_e·s` equals the directional
+/// derivative of `Aᵀy` — central differences of the subproblem's own constraint
+/// coefficients along `s` — over the dynamics rows (nonlinear dynamics, dilation) and the
+/// nodal rows (an inequality with two outputs on two nodes, a ball), for random duals.
+#[test]
+fn exact_curvature_blocks_are_the_lagrangians_second_derivatives() {
+    use super::{NodalConstraint, NodalKind, Ptr, PtrSettings};
+    let nodes = 4;
+    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
+    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![]);
+    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    let vdot = &a - &(&(&p.sin() * &v) * 0.5);
+    ocp.dynamics =
+        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
+    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
+    let ineq = Expr::concat(&[&(&(&p * &p) + &(&v * &a)) - 1.0, &p.sin() * &v]);
+    let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
+    ocp.nodal = vec![
+        NodalConstraint {
+            name: "ineq".into(),
+            function: Function::compile(&[ineq], groups).unwrap(),
+            nodes: vec![1, 2],
+            kind: NodalKind::Inequality,
+            output_names: vec![],
+        },
+        NodalConstraint {
+            name: "ball".into(),
+            function: Function::compile(&[ball], groups).unwrap(),
+            nodes: vec![3],
+            kind: NodalKind::Ball { radius: 0.5 },
+            output_names: vec![],
+        },
+    ];
+    let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
+    settings.discretization.substeps = 40;
+    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    let (u0, s0, vp0, _) = ptr.layout();
+    let z: Vec<f64> = (0..vp0)
+        .map(|i| if i >= s0 { 1.0 + 0.2 * (i as f64).cos() } else { (0.7 * i as f64).sin() })
+        .collect();
+    let dir: Vec<f64> = (0..vp0).map(|i| (1.3 * i as f64 + 0.4).cos()).collect();
+    // The subproblem's coefficients `A(z)` (its `nz` values) at a point.
+    let coefficients = |ptr: &mut Ptr, z: &[f64]| {
+        let mut st = ptr.iterate();
+        ptr.linearize(z, &mut st.dbar).unwrap();
+        ptr.eval_nodal(&z[..u0], &z[u0..s0], &mut st.ev, &st.lam_vb, true);
+        ptr.fill_peaks(&st.dbar, &mut st.ev, super::GridAt::Other);
+        let peak_vals = st.ev.peak_vals.clone();
+        super::fill_values(&ptr.sources, &st.dbar, &st.ev, &peak_vals, &mut st.nz);
+        st.nz
+    };
+    let h = 1e-5;
+    let shifted =
+        |sign: f64| -> Vec<f64> { z.iter().zip(&dir).map(|(z, d)| z + sign * h * d).collect() };
+    let (zp, zm) = (shifted(1.0), shifted(-1.0));
+    let (np, nm) = (coefficients(&mut ptr, &zp), coefficients(&mut ptr, &zm));
+    let mut st = ptr.iterate();
+    ptr.linearize(&z, &mut st.dbar).unwrap();
+    (st.xb, st.ub, st.sb) = (z[..u0].to_vec(), z[u0..s0].to_vec(), z[s0..vp0].to_vec());
+    for (i, y) in st.duals.iter_mut().enumerate() {
+        *y = (2.1 * i as f64 + 0.3).sin();
+    }
+    ptr.exact_curvature(&mut st);
+    let mut model = vec![0.0; vp0];
+    for (el, hb) in ptr.elements.iter().zip(&st.curv.exact) {
+        let d = el.cols.len();
+        for (a, &ca) in el.cols.iter().enumerate() {
+            model[ca] += (0..d).map(|b| hb[a * d + b] * dir[el.cols[b]]).sum::<f64>();
+        }
+    }
+    let (mut worst, mut scale, mut nodal_rows) = (0.0f64, 0.0f64, 0);
+    for (c, m) in model.iter().enumerate() {
+        let fd: f64 = (ptr.a_colptr[c]..ptr.a_colptr[c + 1])
+            .filter(|&q| ptr.exact.exact_rows[ptr.a_rowval[q]])
+            .map(|q| st.duals[ptr.a_rowval[q]] * (np[q] - nm[q]) / (2.0 * h))
+            .sum();
+        worst = worst.max((m - fd).abs());
+        scale = scale.max(fd.abs());
+    }
+    for nr in &ptr.nodal_rows {
+        nodal_rows += usize::from(ptr.exact.exact_rows[nr.row]);
+    }
+    assert_eq!(nodal_rows, 2 * 2 + 2, "every nodal row is an exact one");
+    assert!(scale > 0.1, "a curvature worth checking: {scale}");
+    assert!(worst <= 1e-5 * scale, "H·s off by {worst:e} (scale {scale:e})");
+}

@@ -1,0 +1,102 @@
+//! Candidate defaults applied to every task alike: a finer grid and settings overrides, so
+//! that a change of default is judged on the whole suite before it is made.
+
+use serde_json::Value;
+
+use crate::generate::SuiteTask;
+
+/// What a study changes in every task.
+#[derive(Debug, Clone, Default)]
+pub struct Study {
+    /// Every segment split into this many (1: the task as generated).
+    pub subdivide: usize,
+    /// Fields of `PtrSettings` to override, as a JSON object.
+    pub settings: Option<Value>,
+}
+
+impl Study {
+    /// From the command line's `--subdivide K` and `--settings JSON`.
+    ///
+    /// # Errors
+    /// A subdivision that is not a whole number from 1 to 16, or settings that are not a JSON
+    /// object.
+    pub fn from_args(
+        subdivide: Option<&String>,
+        settings: Option<&String>,
+    ) -> Result<Self, String> {
+        let subdivide = match subdivide {
+            None => 1,
+            Some(k) => match k.parse::<usize>() {
+                Ok(k @ 1..=16) => k,
+                _ => return Err(format!("--subdivide {k}: need a whole number from 1 to 16")),
+            },
+        };
+        let settings = match settings {
+            None => None,
+            Some(s) => match serde_json::from_str::<Value>(s) {
+                Ok(v @ Value::Object(_)) => Some(v),
+                Ok(_) => return Err(format!("--settings {s}: need a JSON object")),
+                Err(e) => return Err(format!("--settings {s}: {e}")),
+            },
+        };
+        Ok(Study { subdivide, settings })
+    }
+
+    /// The task with the study's changes.
+    ///
+    /// # Errors
+    /// Settings that `PtrSettings` does not accept (an unknown key, a wrong type, or values
+    /// its validation refuses), naming the task.
+    pub fn apply(&self, mut t: SuiteTask) -> Result<SuiteTask, String> {
+        if self.subdivide > 1 {
+            t.task = t.task.subdivided(self.subdivide);
+        }
+        if let Some(patch) = &self.settings {
+            let mut current = serde_json::to_value(&t.task.settings).map_err(|e| e.to_string())?;
+            merge(&mut current, patch);
+            t.task.settings = serde_json::from_value(current)
+                .map_err(|e| format!("{}: settings: {e}", t.name))?;
+            t.task.settings.validate().map_err(|e| format!("{}: settings: {e}", t.name))?;
+        }
+        Ok(t)
+    }
+}
+
+/// JSON merge patch (RFC 7386 without deletion): objects merge key by key, anything else
+/// replaces.
+fn merge(target: &mut Value, patch: &Value) {
+    match (target, patch) {
+        (Value::Object(t), Value::Object(p)) => {
+            for (k, v) in p {
+                merge(t.entry(k.clone()).or_insert(Value::Null), v);
+            }
+        }
+        (t, p) => *t = p.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_merge_into_each_task_and_bad_ones_are_refused() {
+        let task = crate::generate::suite().into_iter().next().expect("a task");
+        let nodes = task.task.nodes;
+        let study = Study::from_args(
+            Some(&"2".into()),
+            Some(&r#"{"quasi_newton": true, "discretization": {"substeps": 7}}"#.into()),
+        )
+        .unwrap();
+        let t = study.apply(task.clone()).unwrap();
+        assert_eq!(t.task.nodes, 2 * (nodes - 1) + 1);
+        assert!(t.task.settings.quasi_newton);
+        assert_eq!(t.task.settings.discretization.substeps, 7);
+        // Untouched fields keep the task's value.
+        assert_eq!(t.task.settings.max_iterations, task.task.settings.max_iterations);
+        let bad = Study::from_args(None, Some(&r#"{"no_such_key": 1}"#.into())).unwrap();
+        assert!(bad.apply(task.clone()).unwrap_err().contains("no_such_key"));
+        assert!(Study::from_args(Some(&"0".into()), None).is_err());
+        assert!(Study::from_args(None, Some(&"[1]".into())).is_err());
+    }
+}
