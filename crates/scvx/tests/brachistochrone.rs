@@ -25,22 +25,15 @@ fn analytic(xf: f64, yf: f64) -> f64 {
 
 #[test]
 fn brachistochrone_matches_the_cycloid() {
-    check({
-        let mut s = PtrSettings::default();
-        s.max_iterations = 200;
-        s
-    });
+    check(|_| {});
 }
 
 /// The same with the quasi-Newton model and the Lagrangian merit.
 #[test]
 fn brachistochrone_matches_the_cycloid_with_quasi_newton() {
-    check({
-        let mut s = PtrSettings::default();
-        s.max_iterations = 200;
+    check(|s| {
         s.quasi_newton = true;
         s.merit = Merit::Lagrangian { sigma: 0.5 };
-        s
     });
 }
 
@@ -48,16 +41,17 @@ fn brachistochrone_matches_the_cycloid_with_quasi_newton() {
 /// and the Lagrangian merit.
 #[test]
 fn brachistochrone_matches_the_cycloid_with_the_exact_hessian() {
-    check({
-        let mut s = PtrSettings::default();
-        s.max_iterations = 200;
+    check(|s| {
         s.exact_hessian = true;
         s.merit = Merit::Lagrangian { sigma: 0.5 };
-        s
     });
 }
 
-fn check(settings: PtrSettings) {
+/// Solves with the default settings (200 iterations at most) as `change` leaves them.
+fn check(change: impl FnOnce(&mut PtrSettings)) {
+    let mut settings = PtrSettings::default();
+    settings.max_iterations = 200;
+    change(&mut settings);
     let (xf, yf) = (1.0, 0.6);
     let nodes = 31;
     let pos = Expr::variable("pos", 2);

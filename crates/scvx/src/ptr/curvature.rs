@@ -58,6 +58,8 @@ pub(super) struct CurvatureScratch {
     hessian: Vec<f64>,
     eig_v: Vec<f64>,
     eig_l: Vec<f64>,
+    /// Per column of a block: its share of the trust-region diagonal.
+    shares: Vec<f64>,
 }
 
 impl ExactHessian {
@@ -132,6 +134,7 @@ impl Ptr {
             model_ready: vec![false; self.elements.len()],
             eig_v: vec![0.0; dmax * dmax],
             eig_l: vec![0.0; dmax],
+            shares: vec![0.0; dmax],
             ..CurvatureScratch::default()
         };
         if self.settings.exact_hessian {
@@ -255,15 +258,17 @@ impl Ptr {
                 for (b, x) in block.iter_mut().zip(&cs.exact[e]) {
                     *b += x;
                 }
-                let mut least = f64::INFINITY;
-                for (a, &c) in el.cols.iter().enumerate() {
-                    let share = 2.0 * st.lam_tr * st.inv_s2[c] / self.exact.holders[c];
-                    block[a * d + a] += share;
-                    least = least.min(share);
+                let shares = &mut cs.shares[..d];
+                for (share, &c) in shares.iter_mut().zip(&el.cols) {
+                    *share = 2.0 * st.lam_tr * st.inv_s2[c] / self.exact.holders[c];
                 }
+                for (a, share) in shares.iter().enumerate() {
+                    block[a * d + a] += share;
+                }
+                let least = shares.iter().copied().fold(f64::INFINITY, f64::min);
                 project_psd(block, d, PSD_FLOOR * least, &mut cs.eig_v, &mut cs.eig_l);
-                for (a, &c) in el.cols.iter().enumerate() {
-                    block[a * d + a] -= 2.0 * st.lam_tr * st.inv_s2[c] / self.exact.holders[c];
+                for (a, share) in shares.iter().enumerate() {
+                    block[a * d + a] -= share;
                 }
             }
             for a in 0..d {
