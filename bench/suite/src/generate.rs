@@ -184,6 +184,7 @@ fn iiwa_task(rng: &mut Pcg64Mcg) -> Option<ArmTask> {
     (task.velocity_limit, task.torque_limit) = (limit(&|l| l.velocity), limit(&|l| l.effort));
     task.dynamics = DynamicsModel::DecoupledInertia(vec![1.0, 1.0, 0.6, 0.6, 0.3, 0.1, 0.05]);
     task.settings = task.dynamics.default_settings();
+    task.velocity_limit_peaks = task.dynamics.default_velocity_limit_peaks();
     task.start = None;
     let down = Some(IIWA_DOWN);
     let pick = Vector3::new(lerp(rng, 0.45, 0.65), lerp(rng, -0.35, -0.15), lerp(rng, 0.05, 0.12));
@@ -235,6 +236,7 @@ pub fn suite() -> Vec<SuiteTask> {
         .expect("the fixture URDF loads");
     urdf.dynamics = DynamicsModel::DecoupledInertia(vec![2.0, 2.0, 1.0, 0.1, 0.1, 0.05]);
     urdf.settings = urdf.dynamics.default_settings();
+    urdf.velocity_limit_peaks = urdf.dynamics.default_velocity_limit_peaks();
     for (group, base) in [("ur5e-urdf", &urdf), ("ur5e-rigid-body", &rigid)] {
         let mut made = 0;
         while made < 20 {

@@ -1,12 +1,14 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
-//! [--reference FILE] [--subdivide K] [--settings JSON]`: solves every task of the suite with
+//! [--reference FILE] [--subdivide K] [--settings JSON] [--velocity-peaks true|false]`: solves every task of the suite with
 //! default settings, verifies each independently and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
 //! writes the tasks (with armature's guesses and solutions) for `bench/reference/t_ref.py`.
 //!
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), and `--settings JSON`
-//! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`).
+//! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
+//! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
+//! points or not (each task's dynamics model chooses by default).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -17,11 +19,15 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1));
     let filter = value("--filter").cloned();
-    let study =
-        study::Study::from_args(value("--subdivide"), value("--settings")).unwrap_or_else(|e| {
-            eprintln!("error: {e}");
-            std::process::exit(2);
-        });
+    let study = study::Study::from_args(
+        value("--subdivide"),
+        value("--settings"),
+        value("--velocity-peaks"),
+    )
+    .unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        std::process::exit(2);
+    });
     let tasks: Vec<_> = generate::suite()
         .into_iter()
         .filter(|t| filter.as_ref().is_none_or(|f| t.name.contains(f.as_str())))

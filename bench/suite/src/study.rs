@@ -12,17 +12,22 @@ pub struct Study {
     pub subdivide: usize,
     /// Fields of `PtrSettings` to override, as a JSON object.
     pub settings: Option<Value>,
+    /// Every task's velocity limits bounded at the integration grid's points or not
+    /// (`ArmTask::velocity_limit_peaks`; `None`: each task's own default).
+    pub velocity_peaks: Option<bool>,
 }
 
 impl Study {
-    /// From the command line's `--subdivide K` and `--settings JSON`.
+    /// From the command line's `--subdivide K`, `--settings JSON` and `--velocity-peaks
+    /// true|false`.
     ///
     /// # Errors
-    /// A subdivision that is not a whole number from 1 to 16, or settings that are not a JSON
-    /// object.
+    /// A subdivision that is not a whole number from 1 to 16, settings that are not a JSON
+    /// object, or velocity peaks that are neither `true` nor `false`.
     pub fn from_args(
         subdivide: Option<&String>,
         settings: Option<&String>,
+        velocity_peaks: Option<&String>,
     ) -> Result<Self, String> {
         let subdivide = match subdivide {
             None => 1,
@@ -39,7 +44,13 @@ impl Study {
                 Err(e) => return Err(format!("--settings {s}: {e}")),
             },
         };
-        Ok(Study { subdivide, settings })
+        let velocity_peaks = match velocity_peaks.map(String::as_str) {
+            None => None,
+            Some("true") => Some(true),
+            Some("false") => Some(false),
+            Some(v) => return Err(format!("--velocity-peaks {v}: need true or false")),
+        };
+        Ok(Study { subdivide, settings, velocity_peaks })
     }
 
     /// The task with the study's changes.
@@ -50,6 +61,9 @@ impl Study {
     pub fn apply(&self, mut t: SuiteTask) -> Result<SuiteTask, String> {
         if self.subdivide > 1 {
             t.task = t.task.subdivided(self.subdivide);
+        }
+        if let Some(on) = self.velocity_peaks {
+            t.task.velocity_limit_peaks = on;
         }
         if let Some(patch) = &self.settings {
             let mut current = serde_json::to_value(&t.task.settings).map_err(|e| e.to_string())?;
@@ -86,17 +100,22 @@ mod tests {
         let study = Study::from_args(
             Some(&"2".into()),
             Some(&r#"{"quasi_newton": true, "discretization": {"substeps": 7}}"#.into()),
+            Some(&"false".into()),
         )
         .unwrap();
         let t = study.apply(task.clone()).unwrap();
         assert_eq!(t.task.nodes, 2 * (nodes - 1) + 1);
+        assert!(!t.task.velocity_limit_peaks && task.task.velocity_limit_peaks);
+        let own = Study::from_args(None, None, None).unwrap();
+        assert!(own.apply(task.clone()).unwrap().task.velocity_limit_peaks);
         assert!(t.task.settings.quasi_newton);
         assert_eq!(t.task.settings.discretization.substeps, 7);
         // Untouched fields keep the task's value.
         assert_eq!(t.task.settings.max_iterations, task.task.settings.max_iterations);
-        let bad = Study::from_args(None, Some(&r#"{"no_such_key": 1}"#.into())).unwrap();
+        let bad = Study::from_args(None, Some(&r#"{"no_such_key": 1}"#.into()), None).unwrap();
         assert!(bad.apply(task.clone()).unwrap_err().contains("no_such_key"));
-        assert!(Study::from_args(Some(&"0".into()), None).is_err());
-        assert!(Study::from_args(None, Some(&"[1]".into())).is_err());
+        assert!(Study::from_args(Some(&"0".into()), None, None).is_err());
+        assert!(Study::from_args(None, Some(&"[1]".into()), None).is_err());
+        assert!(Study::from_args(None, None, Some(&"yes".into())).is_err());
     }
 }

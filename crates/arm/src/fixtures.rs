@@ -72,7 +72,7 @@ pub fn pick_and_place() -> ArmTask {
         dynamics: DynamicsModel::DecoupledInertia(vec![0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]),
         velocity_limit: vec![3.0; 7],
         torque_limit: vec![8.0, 8.0, 4.0, 4.0, 2.0, 1.0, 0.5],
-        velocity_limit_peaks: false,
+        velocity_limit_peaks: true,
         start: None,
         time: TimeWindow { min: 0.0, max: 4.0, minimize: true },
         nodes: 11,

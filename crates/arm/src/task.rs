@@ -45,6 +45,23 @@ impl DynamicsModel {
         }
         settings
     }
+
+    /// Whether a task with this model bounds its velocities at every integration grid
+    /// point by default ([`ArmTask::velocity_limit_peaks`]): yes for the decoupled model,
+    /// whose velocity rows each read one joint; no for the rigid-body model, whose rows each
+    /// read every joint of the segment (a subproblem 20 times slower on the UR5e) and whose
+    /// faster optimum then outruns the integration's accuracy (BENCHMARKS.md, 2026-12-05).
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::DynamicsModel;
+    ///
+    /// assert!(DynamicsModel::DecoupledInertia(vec![1.0]).default_velocity_limit_peaks());
+    /// assert!(!DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_velocity_limit_peaks());
+    /// ```
+    pub fn default_velocity_limit_peaks(&self) -> bool {
+        matches!(self, DynamicsModel::DecoupledInertia(_))
+    }
 }
 
 /// A waypoint: the end effector passes within `tolerance` of `position` at node `node`.
@@ -135,7 +152,10 @@ pub struct ArmTask {
     pub velocity_limit: Vec<f64>,
     /// Joint torque limits (one per joint, > 0).
     pub torque_limit: Vec<f64>,
-    /// Also bound each segment's velocity peak between the nodes.
+    /// Also bound the velocities at every integration grid point between the nodes (rows
+    /// with their exact sensitivities), besides their continuous-time integral, whose
+    /// linearization has no gradient where the motion rides a limit. Default: the model's
+    /// ([`DynamicsModel::default_velocity_limit_peaks`]).
     pub velocity_limit_peaks: bool,
     /// The joint angles at the start (default: IK of the first waypoint).
     pub start: Option<Vec<f64>>,

@@ -86,12 +86,14 @@ pub fn arm_task(
     if !crate::settings::has_key(src.text, &["settings", "discretization", "substeps"]) {
         settings.discretization.substeps = dynamics.default_settings().discretization.substeps;
     }
+    let velocity_limit_peaks =
+        robot.velocity_limit_peaks.unwrap_or_else(|| dynamics.default_velocity_limit_peaks());
     let arm_task = ArmTask {
         chain,
         dynamics,
         velocity_limit,
         torque_limit,
-        velocity_limit_peaks: robot.velocity_limit_peaks,
+        velocity_limit_peaks,
         start: robot.start.as_ref().map(|s| s.get_ref().clone()),
         time: TimeWindow { min: t_min, max: t_max, minimize: task.time.minimize },
         nodes,

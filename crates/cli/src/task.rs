@@ -137,13 +137,13 @@ pub struct RobotSpec {
     #[serde(default)]
     #[schemars(with = "Option<Limit>")]
     pub torque_limit: Option<Spanned<Limit>>,
-    /// Also bound each segment's velocity peak between the nodes (one linearized row per
-    /// joint, segment and side; scvx's `Ocp::interval_bounds`), besides the continuous-time
-    /// integral of the velocity limits, whose linearization has no gradient where the motion
-    /// rides a limit. The solve then goes on to a markedly lower final time, in more
-    /// iterations. Default false.
+    /// Also bound the velocities at every integration grid point between the nodes (one
+    /// linearized row per joint, grid point and side; scvx's `Ocp::interval_bounds`),
+    /// besides the continuous-time integral of the velocity limits, whose linearization has
+    /// no gradient where the motion rides a limit. Default: true for the decoupled
+    /// dynamics, false for `dynamics = "rigid_body"` (`DynamicsModel::default_velocity_limit_peaks`).
     #[serde(default)]
-    pub velocity_limit_peaks: bool,
+    pub velocity_limit_peaks: Option<bool>,
 }
 
 /// A tool centre point's offset from the tip frame.

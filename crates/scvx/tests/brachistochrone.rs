@@ -47,8 +47,20 @@ fn brachistochrone_matches_the_cycloid_with_the_exact_hessian() {
     });
 }
 
-/// Solves with the default settings (200 iterations at most) as `change` leaves them.
-fn check(change: impl FnOnce(&mut PtrSettings)) {
+/// The same with the second-order correction of the steps the exact Hessian's model
+/// predicts well but whose defects spoil the ratio (exact-penalty merit).
+#[test]
+fn brachistochrone_matches_the_cycloid_with_second_order_corrections() {
+    let corrected = check(|s| {
+        s.exact_hessian = true;
+        s.second_order_correction = true;
+    });
+    assert!(corrected > 0, "no step was corrected: the test would not test the correction");
+}
+
+/// Solves with the default settings (200 iterations at most) as `change` leaves them; how
+/// many steps the second-order correction replaced.
+fn check(change: impl FnOnce(&mut PtrSettings)) -> usize {
     let mut settings = PtrSettings::default();
     settings.max_iterations = 200;
     change(&mut settings);
@@ -109,4 +121,5 @@ fn check(change: impl FnOnce(&mut PtrSettings)) {
         let (y, v) = (r.x[k * 3 + 1], r.x[k * 3 + 2]);
         assert!((v - (2.0 * G * y.max(0.0)).sqrt()).abs() < 1e-3, "node {k}: v = {v}, y = {y}");
     }
+    r.history.iter().filter(|it| it.corrected).count()
 }

@@ -26,24 +26,28 @@ fn ptr_steps_are_allocation_free() {
     // The collision variant evaluates its clearances on the grid for their peak rows (values
     // everywhere, Jacobians at the stencils).
     let collision = seed::build_collision();
-    // (problem, quasi-Newton, exact Hessian, solver)
-    for (s, quasi_newton, exact, solver) in [
-        (&plain, false, false, SubproblemSolver::Clarabel),
-        (&plain, true, false, SubproblemSolver::Clarabel),
-        (&plain, false, false, SubproblemSolver::InteriorPoint),
-        (&plain, true, false, SubproblemSolver::InteriorPoint),
-        (&plain, false, true, SubproblemSolver::InteriorPoint),
-        (&interval, false, false, SubproblemSolver::InteriorPoint),
-        (&interval, true, false, SubproblemSolver::InteriorPoint),
-        (&interval, true, true, SubproblemSolver::InteriorPoint),
-        (&collision, false, false, SubproblemSolver::InteriorPoint),
-        (&collision, false, true, SubproblemSolver::InteriorPoint),
+    // (problem, quasi-Newton, exact Hessian, second-order correction, solver)
+    for (s, quasi_newton, exact, soc, solver) in [
+        (&plain, false, false, false, SubproblemSolver::Clarabel),
+        (&plain, true, false, false, SubproblemSolver::Clarabel),
+        (&plain, false, false, false, SubproblemSolver::InteriorPoint),
+        (&plain, true, false, false, SubproblemSolver::InteriorPoint),
+        (&plain, false, true, false, SubproblemSolver::InteriorPoint),
+        (&plain, false, true, true, SubproblemSolver::InteriorPoint),
+        (&interval, false, false, false, SubproblemSolver::InteriorPoint),
+        (&interval, true, false, false, SubproblemSolver::InteriorPoint),
+        (&interval, true, true, false, SubproblemSolver::InteriorPoint),
+        (&interval, false, true, true, SubproblemSolver::InteriorPoint),
+        (&collision, false, false, false, SubproblemSolver::InteriorPoint),
+        (&collision, false, true, false, SubproblemSolver::InteriorPoint),
+        (&collision, false, false, true, SubproblemSolver::InteriorPoint),
     ] {
         let settings = {
             let mut s = PtrSettings::default();
             s.subproblem.solver = solver;
             s.quasi_newton = quasi_newton;
             s.exact_hessian = exact;
+            s.second_order_correction = soc;
             s.merit = if quasi_newton || exact {
                 Merit::Lagrangian { sigma: 0.5 }
             } else {
@@ -65,7 +69,7 @@ fn ptr_steps_are_allocation_free() {
             let allowed = usize::from(solver == SubproblemSolver::Clarabel);
             assert!(
                 count <= allowed,
-                "quasi_newton {quasi_newton}, exact {exact}, {solver:?}, interval bounds {}, interval \
+                "quasi_newton {quasi_newton}, exact {exact}, soc {soc}, {solver:?}, interval bounds {}, interval \
                  constraints {}: {count} allocations",
                 !s.ocp.interval_bounds.is_empty(),
                 s.ocp.interval_constraints.len()

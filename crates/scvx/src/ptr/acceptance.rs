@@ -19,12 +19,6 @@ struct StepModel {
     quad: f64,
 }
 
-/// The Lagrangian merit's shift of the ℓ1 merit at defects `d` (zero for the exact penalty).
-fn merit_shift(merit: Merit, d: &[f64], duals: &[f64], lam_vc: &[f64]) -> f64 {
-    let Merit::Lagrangian { sigma } = merit else { return 0.0 };
-    lagrangian_shift(d, duals, lam_vc, sigma)
-}
-
 impl Iteration {
     /// The record of iteration `it` before its subproblem is solved.
     pub(super) fn pending(it: usize, final_time: f64, lam_tr: f64) -> Iteration {
@@ -39,6 +33,7 @@ impl Iteration {
             max_violation: f64::NAN,
             final_time,
             rho: f64::NAN,
+            corrected: false,
             lam_tr,
             tr_gradient: f64::NAN,
             discretization_ms: 0.0,
@@ -157,6 +152,18 @@ impl Ptr {
             TrustRegionUpdate::Adaptive { eta } => rho >= eta[0] || predicted.abs() <= 1e-14,
         };
         let mut j_tr = model.j_tr;
+        let mut corrected = false;
+        if let (true, TrustRegionUpdate::Adaptive { eta }) =
+            (set.second_order_correction, set.trust_region)
+            && rho < eta[2]
+            && predicted > 1e-14
+            && let Some((m, r, jtr)) =
+                self.correct(st, set, z, (phibar, predicted, rho, eta[0]), &mut record)?
+        {
+            (jc, tfc, max_defect, max_violation) = m;
+            cost = self.cost(&st.zc[..u0], tfc);
+            (rho, j_tr, accept, corrected) = (r, jtr, true, true);
+        }
         let mut backtracked = false;
         if let (false, TrustRegionUpdate::Adaptive { eta }, true) =
             (accept, set.trust_region, set.backtracking)
@@ -180,6 +187,7 @@ impl Ptr {
             max_violation,
             final_time: tfc,
             rho,
+            corrected,
             ..record
         };
         let repriced = self.reprice(st, set, z);

@@ -30,7 +30,7 @@ pub(super) struct ExactHessian {
     blocks: Vec<(usize, Vec<(usize, usize)>)>,
     /// Per segment, per entry of `z = [x_k | u_k | s_k | u_{k+1}]`: its element-local
     /// position (`None`: a column through which the segment is linear).
-    segments: Vec<Vec<Option<usize>>>,
+    pub(super) segments: Vec<Vec<Option<usize>>>,
     /// Per primal column: how many element blocks hold it (each takes that share of its
     /// trust-region weight into its block).
     holders: Vec<f64>,
@@ -60,6 +60,8 @@ pub(super) struct CurvatureScratch {
     eig_l: Vec<f64>,
     /// Per column of a block: its share of the trust-region diagonal.
     shares: Vec<f64>,
+    /// The interval constraints' peak rows' share.
+    pub(super) peaks: super::peak_curvature::PeakCurvatureScratch,
 }
 
 impl ExactHessian {
@@ -148,6 +150,7 @@ impl Ptr {
             scratch.hessian = vec![0.0; fs().map(|f| f.hessian_pattern().nnz()).max().unwrap_or(0)];
             scratch.dynamics = Some(self.ocp.dynamics.segment_hessian_workspace());
             scratch.segment = vec![0.0; (n + 2 * m + 1).pow(2)];
+            scratch.peaks = self.peak_curvature_scratch();
         }
         scratch
     }
@@ -160,6 +163,7 @@ impl Ptr {
         }
         self.dynamics_curvature(st);
         self.nodal_curvature(st);
+        self.peak_curvature(st);
     }
 
     /// Each segment's `yᵀ∇²x_prop` (its dynamics rows' duals) into its element block. A

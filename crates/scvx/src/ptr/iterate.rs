@@ -23,6 +23,8 @@ pub(super) struct Iterate {
     pub(super) hess_ready: Vec<bool>,
     /// The exact nodal curvature and the blocks the subproblem's `P` holds.
     pub(super) curv: curvature::CurvatureScratch,
+    /// The second-order correction's buffers.
+    pub(super) soc: correction::CorrectionScratch,
     /// Duals of the last subproblem.
     pub(super) duals: Vec<f64>,
     /// Constraint coefficients at the candidate.
@@ -142,6 +144,7 @@ impl Ptr {
             hess: self.elements.iter().map(|e| vec![0.0; e.cols.len() * e.cols.len()]).collect(),
             hess_ready: vec![false; self.elements.len()],
             curv: self.curvature_scratch(),
+            soc: self.correction_scratch(),
             duals: vec![0.0; self.b.len()],
             nz_new: vec![0.0; self.a_rowval.len()],
             qn_s: vec![0.0; dmax],

@@ -25,6 +25,12 @@ pub(super) fn lagrangian_shift(d: &[f64], duals: &[f64], lam_vc: &[f64], sigma: 
         .sum()
 }
 
+/// The Lagrangian merit's shift of the ℓ1 merit at defects `d` (zero for the exact penalty).
+pub(super) fn merit_shift(merit: Merit, d: &[f64], duals: &[f64], lam_vc: &[f64]) -> f64 {
+    let Merit::Lagrangian { sigma } = merit else { return 0.0 };
+    lagrangian_shift(d, duals, lam_vc, sigma)
+}
+
 impl Ptr {
     /// Merit `(J, t_f, max defect, max nodal violation)` of a trajectory (`at`: whether it
     /// is the reference).

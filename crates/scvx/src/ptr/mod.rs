@@ -216,10 +216,12 @@ impl Ptr {
 mod acceptance;
 mod backend;
 mod build;
+mod correction;
 mod curvature;
 mod evaluate;
 mod iterate;
 mod merit;
+mod peak_curvature;
 mod psd;
 mod quasi_newton;
 mod report;

@@ -124,6 +124,9 @@ pub struct Iteration {
     pub final_time: f64,
     /// Actual / predicted merit reduction.
     pub rho: f64,
+    /// Whether the candidate is the step's second-order correction
+    /// ([`PtrSettings::second_order_correction`]).
+    pub corrected: bool,
     /// λ_tr used.
     pub lam_tr: f64,
     /// How hard the trust region holds the step back: `max_i |2λ_tr·Δz_i/S_i|`, the

@@ -90,8 +90,19 @@ pub struct PtrSettings {
     /// configurations that hold a pose form a curve; the dilation multiplies the controls),
     /// so the merit rejects its long steps and the trust region stops it short of the
     /// optimum. With `quasi_newton` too, the damped BFGS blocks model what is left (the
-    /// peak rows between the nodes). Default false.
+    /// peak rows between the nodes). The interval constraints' peak rows add `y·Gᵀ∇²g G`
+    /// (their curvature in the states through the grid's sensitivities `G`): without it a
+    /// 0.1° orientation range, whose squared form curves as `1/tol`, collapses the trust
+    /// region. Default true (chosen on the benchmark suite, `BENCHMARKS.md`).
     pub exact_hessian: bool,
+    /// With [`TrustRegionUpdate::Adaptive`]: when a step's ratio ρ falls short of η₂ (the
+    /// trust region would not widen), solve its second-order correction — the same
+    /// subproblem with each nonlinear row's constant moved by the error the step left in it
+    /// (`b′ = h(z̄ + Δz) + A·Δz`) — and take the corrected candidate if its ratio against
+    /// the same prediction is higher. Second-order defects then no longer spoil the ratio of
+    /// a good step (the Maratos effect). Costs one more subproblem (warm-started) and one
+    /// more discretization where tried. Default true.
+    pub second_order_correction: bool,
     /// The merit function that accepts or rejects steps. Default [`Merit::ExactPenalty`].
     pub merit: Merit,
 }
@@ -344,7 +355,8 @@ impl Default for PtrSettings {
             dense_tolerance: 1e-4,
             backtracking: true,
             quasi_newton: false,
-            exact_hessian: false,
+            exact_hessian: true,
+            second_order_correction: true,
             merit: Merit::ExactPenalty,
         }
     }

@@ -384,3 +384,154 @@ fn exact_curvature_blocks_are_the_lagrangians_second_derivatives() {
     assert!(scale > 0.1, "a curvature worth checking: {scale}");
     assert!(worst <= 1e-5 * scale, "H·s off by {worst:e} (scale {scale:e})");
 }
+
+/// The second-order correction's shift of the right-hand sides, `b′ − b = h(z̄ + Δz) −
+/// (b − A·Δz)`, is the error of the subproblem's linear model of each row, so it shrinks
+/// with the square of the step: halving `Δz` quarters it on the dynamics rows (nonlinear
+/// dynamics), on the nodal rows (an inequality and a ball's cone) and on the peak rows. A
+/// sign slip in any row kind would leave a first-order shift (a ratio of 2).
+#[test]
+fn correction_shifts_are_second_order_in_the_step() {
+    use super::{NodalConstraint, NodalKind, Ptr, PtrSettings};
+    let nodes = 5;
+    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
+    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![1]);
+    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    let vdot = &a - &(&(&p.sin() * &v) * 0.5);
+    ocp.dynamics =
+        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
+    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
+    let ineq = &(&p * &p) + &(&v * &a) - 1.0;
+    let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
+    ocp.nodal = vec![
+        NodalConstraint {
+            name: "ineq".into(),
+            function: Function::compile(&[ineq], groups).unwrap(),
+            nodes: vec![1, 2],
+            kind: NodalKind::Inequality,
+            output_names: vec![],
+        },
+        NodalConstraint {
+            name: "ball".into(),
+            function: Function::compile(&[ball], groups).unwrap(),
+            nodes: vec![3],
+            kind: NodalKind::Ball { radius: 0.5 },
+            output_names: vec![],
+        },
+    ];
+    let settings = PtrSettings { second_order_correction: true, ..PtrSettings::default() };
+    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    let (u0, s0, vp0, _) = ptr.layout();
+    let n_dyn = (nodes - 1) * 2;
+    let mut st = ptr.iterate();
+    let zbar: Vec<f64> = (0..vp0)
+        .map(|i| if i >= s0 { 1.0 + 0.2 * (i as f64).cos() } else { (0.7 * i as f64).sin() })
+        .collect();
+    (st.xb, st.ub, st.sb) = (zbar[..u0].to_vec(), zbar[u0..s0].to_vec(), zbar[s0..].to_vec());
+    ptr.linearize(&zbar, &mut st.dbar).unwrap();
+    ptr.linearize_constraints(&mut st);
+    let dir: Vec<f64> = (0..ptr.n_vars)
+        .map(|i| if i < vp0 { 0.1 * (1.3 * i as f64 + 0.4).cos() } else { 0.0 })
+        .collect();
+    // The largest shift over the dynamics, nodal and peak rows for the step `t·dir`.
+    let mut shifts = |t: f64| -> [f64; 3] {
+        let z: Vec<f64> = dir.iter().map(|d| t * d).collect();
+        for i in 0..vp0 {
+            st.zc[i] = zbar[i] + z[i];
+        }
+        let prices = (&st.lam_vc[..], &st.lam_vb[..]);
+        ptr.evaluate(&st.zc, &mut st.dcand, &mut st.ev, prices).unwrap();
+        assert!(ptr.corrected_rhs(&mut st, &z));
+        let shift = |r: usize| (st.soc_rhs()[r] - st.b[r]).abs();
+        [
+            (0..n_dyn).map(shift).fold(0.0, f64::max),
+            ptr.nodal_rows.iter().map(|nr| shift(nr.row)).fold(0.0, f64::max),
+            ptr.peaks.iter().map(|p| shift(p.row)).fold(0.0, f64::max),
+        ]
+    };
+    let (big, small) = (shifts(1.0), shifts(0.5));
+    assert!(!ptr.peaks.is_empty(), "peak rows");
+    assert_eq!(ptr.nodal_rows.len(), 2 + 2, "the inequality on two nodes, the cone's g rows");
+    for (kind, (b, s)) in ["dynamics", "nodal", "peak"].iter().zip(big.iter().zip(&small)) {
+        assert!(*b > 1e-6, "{kind} rows: a shift worth checking ({b:e})");
+        let ratio = b / s;
+        assert!((3.0..5.5).contains(&ratio), "{kind} rows: shift ratio {ratio} (want ≈ 4)");
+    }
+}
+
+/// The interval constraints' curvature is `Σ y·Gᵀ∇²g G` over their peak rows: along a
+/// direction that leaves the dilations alone (the flow is then linear in the step, so the
+/// rows' `∇g·∂²x/∂z²` the curvature leaves out vanishes), `Σ_e H_e·s` equals the
+/// directional derivative of `Aᵀy` over the peak rows — central differences of the
+/// subproblem's own coefficients — in every state and control column. A row at every grid
+/// point, the velocity rising through each segment (no row refined between points).
+#[test]
+fn peak_curvature_is_the_rows_second_derivative_in_the_states() {
+    use super::{Ptr, PtrSettings};
+    let nodes = 4;
+    let g = |p: &Expr, v: &Expr| &(&(v * v) + &(&p.sin() * 0.3)) + &(&(p * v) - 0.25);
+    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![]);
+    ocp.interval_constraints[0].sampling = crate::Sampling::GridPoints;
+    let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
+    settings.discretization.substeps = 4;
+    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    let (u0, s0, vp0, _) = ptr.layout();
+    // p, v rising; accelerations positive; dilations near 1.
+    let z: Vec<f64> = (0..vp0)
+        .map(|i| match i {
+            i if i < u0 => 0.3 * (i / 2) as f64 + if i % 2 == 1 { 0.2 } else { 0.0 },
+            i if i < s0 => 0.5 + 0.1 * (i as f64).sin(),
+            i => 1.0 + 0.1 * (i as f64).cos(),
+        })
+        .collect();
+    let dir: Vec<f64> =
+        (0..vp0).map(|i| if i < s0 { (1.3 * i as f64 + 0.4).cos() } else { 0.0 }).collect();
+    let coefficients = |ptr: &mut Ptr, z: &[f64]| {
+        let mut st = ptr.iterate();
+        ptr.linearize(z, &mut st.dbar).unwrap();
+        ptr.fill_peaks(&st.dbar, &mut st.ev, super::GridAt::Other);
+        let stencils = st.ev.stencils.clone();
+        let peak_vals = st.ev.peak_vals.clone();
+        super::fill_values(&ptr.sources, &st.dbar, &st.ev, &peak_vals, &mut st.nz);
+        (st.nz, stencils)
+    };
+    let h = 1e-5;
+    let shifted =
+        |sign: f64| -> Vec<f64> { z.iter().zip(&dir).map(|(z, d)| z + sign * h * d).collect() };
+    let ((np, sp), (nm, sm)) =
+        (coefficients(&mut ptr, &shifted(1.0)), coefficients(&mut ptr, &shifted(-1.0)));
+    let mut st = ptr.iterate();
+    (st.xb, st.ub, st.sb) = (z[..u0].to_vec(), z[u0..s0].to_vec(), z[s0..vp0].to_vec());
+    ptr.linearize(&z, &mut st.dbar).unwrap();
+    ptr.linearize_constraints(&mut st);
+    let one_hot = |w: [f64; 3]| w.iter().filter(|&&x| x != 0.0).count() == 1;
+    assert!(st.ev.stencils.iter().chain(&sp).chain(&sm).all(|&(_, w)| one_hot(w)));
+    st.duals.fill(0.0);
+    for (i, p) in ptr.peaks.iter().enumerate() {
+        st.duals[p.row] = 0.5 + (1.7 * i as f64).sin().abs();
+    }
+    ptr.exact_curvature(&mut st);
+    let mut model = vec![0.0; vp0];
+    for (el, hb) in ptr.elements.iter().zip(&st.curv.exact) {
+        let d = el.cols.len();
+        for (a, &ca) in el.cols.iter().enumerate() {
+            model[ca] += (0..d).map(|b| hb[a * d + b] * dir[el.cols[b]]).sum::<f64>();
+        }
+    }
+    let peak_row: Vec<bool> = {
+        let mut r = vec![false; ptr.b.len()];
+        ptr.peaks.iter().for_each(|p| r[p.row] = true);
+        r
+    };
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    for (c, m) in model.iter().enumerate().take(s0) {
+        let fd: f64 = (ptr.a_colptr[c]..ptr.a_colptr[c + 1])
+            .filter(|&q| peak_row[ptr.a_rowval[q]])
+            .map(|q| st.duals[ptr.a_rowval[q]] * (np[q] - nm[q]) / (2.0 * h))
+            .sum();
+        worst = worst.max((m - fd).abs());
+        scale = scale.max(fd.abs());
+    }
+    assert!(scale > 0.1, "a curvature worth checking: {scale}");
+    assert!(worst <= 1e-5 * scale, "H·s off by {worst:e} (scale {scale:e})");
+}
