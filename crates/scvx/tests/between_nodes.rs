@@ -79,14 +79,19 @@ fn solve(between_nodes: bool) -> (Solution, f64) {
 fn peak_rows_keep_the_path_out_of_the_disc_between_the_nodes() {
     let (nodal, depth_nodal) = solve(false);
     assert_eq!(nodal.status, armature_scvx::PtrStatus::Converged);
-    // At the nodes only: a segment cuts through the disc, which buys time.
-    assert!(depth_nodal > 1e-2, "deepest penetration {depth_nodal}");
+    // At the nodes only: a segment cuts into the disc (more than the dense check's 1e-4).
+    assert!(depth_nodal > 1e-3, "deepest penetration {depth_nodal}");
     let (peaks, depth_peaks) = solve(true);
     assert_eq!(peaks.status, armature_scvx::PtrStatus::Converged);
     // Between the nodes too: the peak of each segment on the integration grid, refined by a
     // parabola, is within the integration's accuracy of the continuous one.
     assert!(depth_peaks <= 1e-5, "deepest penetration {depth_peaks}");
-    assert!(peaks.final_time > nodal.final_time + 1e-3);
+    // The axes' accelerations are bounded apart, so the path can dodge the disc sideways
+    // without slowing down: both reach (or approach) the unconstrained optimum 2√2 s, and
+    // the rows never buy time.
+    let unconstrained = 2.0 * 2f64.sqrt();
+    assert!(peaks.final_time >= unconstrained - 1e-6, "T = {}", peaks.final_time);
+    assert!(peaks.final_time >= nodal.final_time - 1e-6);
     // The report names the constraint and finds it met.
     let v = peaks
         .violations

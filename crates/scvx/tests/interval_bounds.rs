@@ -48,11 +48,14 @@ fn peak_rows_keep_a_velocity_limit_between_the_nodes() {
     let (peak, v_peak) = solve(limited(nodes, true));
     assert_eq!(peak.status, PtrStatus::Converged);
     // FOH acceleration makes the velocity quadratic in time: the parabola through the grid
-    // points is exact, and so is the peak.
-    assert!(v_peak <= VMAX + 1e-7, "largest velocity {v_peak}");
-    // The limit costs time, and no discretization beats the continuous optimum.
+    // points is exact, and so is the peak, held to the convergence tolerance `eps_vb`.
+    let eps_vb = PtrSettings::default().eps_vb;
+    assert!(v_peak <= VMAX + eps_vb, "largest velocity {v_peak}");
+    // The limit costs time, and no discretization beats the continuous optimum; the exact
+    // curvature brings 6 nodes within 2 % of it.
     assert!(peak.final_time > nodal.final_time + 1e-3);
     assert!(peak.final_time >= t_star - 1e-6, "T = {} < T* = {t_star}", peak.final_time);
+    assert!(peak.final_time <= 1.02 * t_star, "T = {} vs T* = {t_star}", peak.final_time);
     // The report names the bound and finds it met.
     let v = peak.violations.iter().find(|v| v.constraint == "bounds of v between nodes").unwrap();
     assert!(v.value <= 1e-6 && v.node.is_some(), "{v:?}");

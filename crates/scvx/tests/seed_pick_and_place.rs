@@ -16,6 +16,14 @@ fn seed_pick_and_place_converges_and_meets_the_task() {
 }
 
 /// The defaults with Clarabel for every subproblem.
+/// First-order subproblems: no exact curvature, no second-order correction.
+fn first_order() -> PtrSettings {
+    let mut s = PtrSettings::default();
+    s.exact_hessian = false;
+    s.second_order_correction = false;
+    s
+}
+
 fn only_clarabel() -> PtrSettings {
     let mut s = PtrSettings::default();
     s.subproblem.solver = SubproblemSolver::Clarabel;
@@ -52,13 +60,18 @@ fn native_interior_point_matches_clarabel_in_fewer_subproblem_iterations() {
 #[test]
 fn clarabel_takes_over_when_the_native_solver_stops_short() {
     let s = seed::build();
+    // One subproblem solve per iteration (no second-order correction re-solve), so that each
+    // record counts one subproblem's iterations.
     let capped = {
         let mut s = PtrSettings::default();
         s.subproblem.interior_point.max_iterations = 1;
+        s.second_order_correction = false;
         s
     };
     let r = Ptr::new(s.ocp.clone(), capped).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
-    let c = Ptr::new(s.ocp.clone(), only_clarabel()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
+    let mut plain = only_clarabel();
+    plain.second_order_correction = false;
+    let c = Ptr::new(s.ocp.clone(), plain).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_eq!(r.status, PtrStatus::Converged);
     assert_eq!(r.x, c.x);
     assert_eq!(r.final_time, c.final_time);
@@ -72,7 +85,7 @@ fn clarabel_takes_over_when_the_native_solver_stops_short() {
 }
 
 /// The quasi-Newton model with the Lagrangian merit meets the same task and goes further
-/// down the final time than the first-order default, whose trust region stops it early
+/// down the final time than first-order subproblems, whose trust region stops them early
 /// (a short step held back by a heavy λ_tr, not a stationary point).
 #[test]
 fn quasi_newton_reaches_a_lower_final_time() {
@@ -82,7 +95,7 @@ fn quasi_newton_reaches_a_lower_final_time() {
     // converged in 65 to 101 across solver revisions; in the arm crate's formulation it
     // needs about 240 (T ≈ 1.28 s against the first-order 1.56 s).
     let settings = {
-        let mut s = PtrSettings::default();
+        let mut s = first_order();
         s.quasi_newton = true;
         s.merit = Merit::Lagrangian { sigma: 0.5 };
         s.max_iterations = 600;
@@ -91,7 +104,7 @@ fn quasi_newton_reaches_a_lower_final_time() {
     let r = Ptr::new(s.ocp.clone(), settings).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert_meets_the_task(&s, &r);
     let first_order =
-        Ptr::new(s.ocp.clone(), PtrSettings::default()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
+        Ptr::new(s.ocp.clone(), first_order()).unwrap().solve(&s.x, &s.u, &s.s).unwrap();
     assert!(
         r.final_time < first_order.final_time - 0.1,
         "quasi-Newton T = {} vs first-order T = {}",
@@ -251,10 +264,13 @@ fn switching_far_peak_rows_off_keeps_the_collision_iterates() {
 #[test]
 fn no_light_subproblem_runs_the_interior_point_to_its_cap() {
     let s = seed::build_collision();
+    // One subproblem solve per iteration (no second-order correction re-solve), so that each
+    // record counts one subproblem's iterations.
     let settings = {
         let mut s = PtrSettings::default();
         s.lam_tr = 0.5;
         s.discretization.substeps = 12;
+        s.second_order_correction = false;
         s
     };
     let cap = settings.subproblem.interior_point.max_iterations;

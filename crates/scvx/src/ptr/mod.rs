@@ -73,7 +73,18 @@
 //! segment (`P` gains one dense block per segment over the columns where the segment's rows
 //! are nonlinear; the pairs are `s = z − z̄`, `y = (A(z) − A(z̄))ᵀλ` with the subproblem's
 //! duals λ), and [`Merit::Lagrangian`] prices a defect by its dual instead of its full ℓ1
-//! weight. What each of these does on the seed, measured, is in the crate's BENCHMARKS.md.
+//! weight. The default, [`PtrSettings::exact_hessian`], puts the Lagrangian's exact curvature
+//! there instead: the dynamics' by the second-order adjoint, the nodal rows' from the
+//! symbolic graph, and each active peak row's curvature in the states through the grid's
+//! sensitivities (`peak_curvature.rs`).
+//!
+//! A rejected step (or one with a poor ratio) gets one second-order correction
+//! ([`PtrSettings::second_order_correction`], `correction.rs`): the subproblem is re-solved
+//! with its right-hand sides shifted by the linear model's error at the candidate,
+//! `b′ = h(z̄ + Δz) + A·Δz`, and the corrected candidate is kept when its ratio is better —
+//! the classical remedy when curved constraints (a 0.1° orientation range) make a good
+//! step look bad to the merit. What each of these does, measured on the suite, is in
+//! BENCHMARKS.md.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{

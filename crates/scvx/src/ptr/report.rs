@@ -139,7 +139,8 @@ pub struct Iteration {
     pub discretization_ms: f64,
     /// Wall time of the subproblem: data update (or setup) and solve (ms).
     pub subproblem_ms: f64,
-    /// Interior-point iterations of the subproblem.
+    /// Interior-point iterations of the subproblem (with those of its second-order
+    /// correction's re-solve, when one was made).
     pub subproblem_iterations: u32,
     /// How the subproblem ended.
     pub subproblem_status: SubproblemStatus,

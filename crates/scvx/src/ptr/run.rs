@@ -85,6 +85,8 @@ impl Ptr {
             native.restart();
         }
         st.hess_ready.fill(false);
+        // Nor from its multipliers (the exact curvature and the Lagrangian merit read them).
+        st.duals.fill(0.0);
         st.linearized = false;
         st.history.clear();
         // Room for a typical solve; a huge cap must not reserve its whole history up front.
