@@ -93,7 +93,8 @@ pub(crate) fn add_task_constraints(problem: &mut Problem, t: &ArmTask) -> Result
         let (deg, first, last, name) = (o.tolerance_deg, o.first, o.last, &o.name);
         let log = Expr::from_matrix(&r.matrix().transpose()).matmul(&fk.ee_rotation()).so3_log();
         // Held at every point of the integration grid (the parabola through each point and
-        // its neighbours catching what lies between them): a CTCS integral of the angle
+        // its neighbours, with a bound on its cubic error, catching what lies between them;
+        // `Sampling::GridPoints`): a CTCS integral of the angle
         // leaves it 1e-2 rad out between the nodes, and one peak row per segment zig-zags
         // (BENCHMARKS.md). The squared form is smooth where the gripper is exactly on target
         // and equals the angle's excess to first order at the bound.

@@ -140,7 +140,10 @@ pub enum Sampling {
     #[default]
     Peak,
     /// One row per output at every point of the integration grid of each segment (its
-    /// nodes included): `∇g_o(x(t_j))·∂x(t_j)/∂z · Δz − ν_b ≤ −g_o(x(t_j))`.
+    /// nodes included), each bounding `g_o` over its half-step cell: the parabola through
+    /// the point and its neighbours at its largest there, plus a bound on its cubic error
+    /// from the grid's third differences, `ĝ_o = Σ_i w_i g_o(x(t_i))` over up to five points,
+    /// and the row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o`.
     GridPoints,
 }
 

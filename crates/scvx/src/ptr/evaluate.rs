@@ -26,7 +26,7 @@ pub(super) struct NodalEval {
     pub(super) stencil_points: Vec<usize>,
     /// Per peak row: the first grid point of its stencil and its weights, at the last
     /// `fill_peaks`.
-    pub(super) stencils: Vec<(usize, [f64; 3])>,
+    pub(super) stencils: Vec<(usize, Stencil)>,
     /// `fgrid` holds the interval constraints' values at the reference (`Iterate::dbar`):
     /// set when they are evaluated there, or when the candidate they were evaluated at is
     /// accepted; cleared by an evaluation anywhere else and by a parameter change.
@@ -127,38 +127,106 @@ pub(super) fn fill_values(
     }
 }
 
+/// The weights of a peak row's value over consecutive grid points from its stencil's first:
+/// three for the parabola, up to five with the cubic margin's third differences.
+pub(super) const STENCIL: usize = 5;
+
+/// A peak row's weights (see [`STENCIL`]).
+pub(super) type Stencil = [f64; STENCIL];
+
+/// The parabola's weights at `θ` (relative to its centre) as a stencil from its first point.
+fn parabola(theta: f64) -> Stencil {
+    [0.5 * theta * (theta - 1.0), 1.0 - theta * theta, 0.5 * theta * (theta + 1.0), 0.0, 0.0]
+}
+
+/// `Σ w_i g(first + i)` over the nonzero weights.
+fn weighed(first: usize, w: &Stencil, g: &impl Fn(usize) -> f64) -> f64 {
+    w.iter().enumerate().filter(|(_, w)| **w != 0.0).map(|(i, w)| w * g(first + i)).sum()
+}
+
 /// The peak of `g` over the grid points `0..pts`: `(ĝ, first grid point of the stencil, its
 /// Lagrange weights)`. The discrete maximum is refined by the parabola through it and its
 /// neighbours (the vertex, when the parabola is concave and the vertex lies between them);
 /// `ĝ = Σ w_i g_i` (the weights sum to 1).
-pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, [f64; 3]) {
+pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, Stencil) {
     let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
     if pts < 3 {
-        return (g(best), best, [1.0, 0.0, 0.0]);
+        return (g(best), best, [1.0, 0.0, 0.0, 0.0, 0.0]);
     }
     let c = best.clamp(1, pts - 2);
     let (gm, g0, gp) = (g(c - 1), g(c), g(c + 1));
     let curv = gm - 2.0 * g0 + gp;
     let theta =
         if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-1.0, 1.0) } else { best as f64 - c as f64 };
-    let w = [0.5 * theta * (theta - 1.0), 1.0 - theta * theta, 0.5 * theta * (theta + 1.0)];
-    (w[0] * gm + w[1] * g0 + w[2] * gp, c - 1, w)
+    let w = parabola(theta);
+    (weighed(c - 1, &w, &g), c - 1, w)
 }
 
-/// The largest value of `g` within half a grid step of interior grid point `j` of `pts`, by
-/// the parabola through `j − 1, j, j + 1` where it is concave (its vertex clamped to
-/// `j ± ½`), else `g(j)`; at the segment's ends, `g(j)`. As `peak_of`: (value, the stencil's
-/// first point, its weights). Each grid point's row so also holds the constraint between the
-/// points, to third order in the grid step.
-pub(super) fn local_peak(pts: usize, j: usize, g: impl Fn(usize) -> f64) -> (f64, usize, [f64; 3]) {
-    if j == 0 || j + 1 >= pts {
-        return (g(j), j, [1.0, 0.0, 0.0]);
+/// The largest value of `g` within half a grid step of grid point `j` of `pts` (on the
+/// segment: the first and last points reach half a step inward), bounded from above: the
+/// parabola through three neighbouring points at its largest in `j`'s cell (its vertex
+/// where it is concave, clamped into the cell, else `j`), plus a bound on what the parabola
+/// misses of a cubic (`cubic_margin`). As `peak_of`: (value, the stencil's first point, its
+/// weights), the value `Σ w_i g_i` up to the margin's sign, which is fixed where the weights
+/// are taken. The rows of all the grid points so hold the constraint everywhere between
+/// them, to fourth order in the grid step — the cells next to the nodes included.
+pub(super) fn local_peak(pts: usize, j: usize, g: impl Fn(usize) -> f64) -> (f64, usize, Stencil) {
+    if pts < 3 {
+        return (g(j), j, [1.0, 0.0, 0.0, 0.0, 0.0]);
     }
-    let (gm, g0, gp) = (g(j - 1), g(j), g(j + 1));
+    // The parabola's centre, and the cell [lo, hi] of point j around it.
+    let (c, lo, hi) = match j {
+        0 => (1, -1.0, -0.5),
+        j if j + 1 >= pts => (pts - 2, 0.5, 1.0),
+        j => (j, -0.5, 0.5),
+    };
+    let (gm, g0, gp) = (g(c - 1), g(c), g(c + 1));
     let curv = gm - 2.0 * g0 + gp;
-    let theta = if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-0.5, 0.5) } else { 0.0 };
-    let w = [0.5 * theta * (theta - 1.0), 1.0 - theta * theta, 0.5 * theta * (theta + 1.0)];
-    (w[0] * gm + w[1] * g0 + w[2] * gp, j - 1, w)
+    let own = j as f64 - c as f64;
+    let theta = if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(lo, hi) } else { own };
+    // The stencil starts two points before the centre where there are two.
+    let first = c.saturating_sub(2);
+    let mut w = [0.0; STENCIL];
+    let at = c - 1 - first;
+    w[at..at + 3].copy_from_slice(&parabola(theta)[..3]);
+    cubic_margin(pts, c, first, &g, &mut w);
+    (weighed(first, &w, &g), first, w)
+}
+
+/// Adds to `w` (a stencil from `first`) a bound on what the parabola through `c − 1, c,
+/// c + 1` misses within a step of `c`: its error at `θ` is `g‴(ξ)·θ(θ² − 1)/6`, at most
+/// `max|g‴|/15` in magnitude for `|θ| ≤ 1`, with `g‴` (per grid step cubed) taken as the
+/// larger third difference `|Δ³g|` of the two four-point windows around `c` that lie on the
+/// segment — as weights, `±(−1, 3, −3, 1)/15` on that window (none with fewer than four
+/// points).
+fn cubic_margin(pts: usize, c: usize, first: usize, g: &impl Fn(usize) -> f64, w: &mut Stencil) {
+    if pts < 4 {
+        return;
+    }
+    // The third difference, zero where it is rounding (a quadratic: a velocity under a
+    // first-order hold), so that its sign does not flicker.
+    let d3 = |a: usize| {
+        let (g0, g1, g2, g3) = (g(a), g(a + 1), g(a + 2), g(a + 3));
+        let d = g3 - 3.0 * g2 + 3.0 * g1 - g0;
+        let scale = g0.abs() + 3.0 * g1.abs() + 3.0 * g2.abs() + g3.abs();
+        if d.abs() <= 1e-12 * scale { 0.0 } else { d }
+    };
+    let windows = [(c >= 2).then(|| c - 2), (c + 2 < pts).then(|| c - 1)];
+    let Some((a, d)) = windows
+        .into_iter()
+        .flatten()
+        .map(|a| (a, d3(a)))
+        .max_by(|x, y| x.1.abs().total_cmp(&y.1.abs()))
+    else {
+        return;
+    };
+    if d == 0.0 {
+        return;
+    }
+    let sign = if d < 0.0 { -1.0 } else { 1.0 };
+    for (i, k) in [-1.0, 3.0, -3.0, 1.0].into_iter().enumerate() {
+        w[a - first + i] += sign * k / 15.0;
+    }
 }
 
 impl Ptr {
@@ -239,7 +307,7 @@ impl Ptr {
                 PeakOf::State(_) => {
                     for q in p.src.clone() {
                         let off = base + self.peak_src[q];
-                        let v: f64 = (0..3)
+                        let v: f64 = (0..STENCIL)
                             .filter(|&i| w[i] != 0.0)
                             .map(|i| w[i] * d.grid[off + i * stride])
                             .sum();
@@ -404,7 +472,7 @@ impl Ptr {
         d: &Discretization,
         ev: &NodalEval,
         p: &PeakRow,
-    ) -> (f64, usize, [f64; 3]) {
+    ) -> (f64, usize, Stencil) {
         let pts = d.grid_points;
         // The segment's peak, or the local one at a fixed grid point.
         let at = |g: &dyn Fn(usize) -> f64| match p.at {

@@ -131,7 +131,7 @@ impl Ptr {
                 stencil_points: Vec::with_capacity(
                     self.intervals.iter().map(|m| (m.last - m.first) * pts).sum(),
                 ),
-                stencils: vec![(0, [0.0; 3]); self.peaks.len()],
+                stencils: vec![(0, [0.0; evaluate::STENCIL]); self.peaks.len()],
                 fgrid_reference: false,
                 segment_peak: vec![0.0; self.intervals.iter().map(|m| m.last - m.first).sum()],
             },

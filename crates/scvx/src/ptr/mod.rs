@@ -46,7 +46,12 @@
 //! segment and output, the peak of `g_o(x(t_j))` over the grid, refined the same way, and the
 //! row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o` ([`IntervalConstraint`]). The
 //! values are computed at every grid point, the Jacobians only at the stencils' points. Each
-//! row couples a segment's states, controls and dilation, so the KKT factor grows.
+//! row couples a segment's states, controls and dilation, so the KKT factor grows. With
+//! [`crate::Sampling::GridPoints`] every grid point has its row, bounding `g_o` over its half-step
+//! cell: its parabola at its largest there plus `max|Δ³g|/15`, a bound on what a parabola
+//! misses of a cubic (the third differences' weights join the stencil, so the row's gradient
+//! is exact away from the margin's kinks). Without the margin the 0.1° orientation ranges
+//! ended 1e-4–2.5e-4 rad out between grid points on 6 of the suite's tasks.
 //!
 //! With an activation distance ([`IntervalConstraint::activation`]) a segment's rows sit out
 //! of the subproblem while all its peaks lie further than that below the bound: their

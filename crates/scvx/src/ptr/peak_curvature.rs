@@ -10,8 +10,9 @@
 //! own scale — and a subproblem without it predicts a step's change of orientation so badly
 //! that the merit's ratio, and with it the trust region, collapses (BENCHMARKS.md).
 //!
-//! A row's grid point is the one its stencil weighs most (its own point for
-//! [`crate::Sampling::GridPoints`]). Interval constraints read only the states (checked in
+//! A row's value is a weighted sum over its stencil's grid points (a parabola's vertex, a
+//! grid point's cubic margin: `evaluate.rs`), so its curvature is `y·Σ w_i G_iᵀ∇²g_o G_i`
+//! with the weights held fixed. Interval constraints read only the states (checked in
 //! `start`), so their Hessian's state block is all there is.
 
 use armature_symbolic::HessianWorkspace;
@@ -31,6 +32,8 @@ pub(super) struct PeakCurvatureScratch {
     hx: Vec<f64>,
     g: Vec<f64>,
     hg: Vec<f64>,
+    /// A row's `Σ w_i G_iᵀ∇²g_o G_i` over its stencil (`dz × dz`).
+    sum: Vec<f64>,
 }
 
 impl Ptr {
@@ -48,10 +51,11 @@ impl Ptr {
             hx: vec![0.0; n * n],
             g: vec![0.0; n * dz],
             hg: vec![0.0; n * dz],
+            sum: vec![0.0; dz * dz],
         }
     }
 
-    /// Each active interval-constraint peak row's `y·Gᵀ∇²g_o G` at the reference (`st.dbar`'s
+    /// Each active interval-constraint peak row's `y·Σ w_i G_iᵀ∇²g_o G_i` at the reference (`st.dbar`'s
     /// grid) into its segment's block of `st.curv.exact`. A row whose evaluation fails
     /// contributes nothing.
     pub(super) fn peak_curvature(&self, st: &mut Iterate) {
@@ -65,50 +69,73 @@ impl Ptr {
                 continue;
             }
             let (first, w) = st.ev.stencils[i];
-            let top = (0..3).max_by(|&a, &b| w[a].abs().total_cmp(&w[b].abs())).unwrap_or(0);
-            let point = p.at.unwrap_or(first + top).min(pts - 1);
-            let base = (p.seg * pts + point) * stride;
-            let grid = &st.dbar.grid[base..base + stride];
-            let f = &self.ocp.interval_constraints[c].function;
-            let sc = &mut st.curv.peaks;
-            sc.input[..n].copy_from_slice(&grid[..n]);
-            sc.input[n..].fill(0.0);
-            let nout = f.n_outputs();
-            sc.weights[..nout].fill(0.0);
-            sc.weights[out] = y;
-            let nnz = f.hessian_pattern().nnz();
-            let (vals, h) = (&mut sc.values[..nout], &mut sc.hessian[..nnz]);
-            if f.eval_hessian(&sc.input, &sc.weights[..nout], &mut sc.hws[c], vals, None, h)
-                .is_err()
-                || h.iter().any(|x| !x.is_finite())
-            {
-                continue;
+            st.curv.peaks.sum.fill(0.0);
+            let points = w.iter().enumerate().filter(|(_, w)| **w != 0.0);
+            let points = points.map(|(j, &wj)| (first + j, wj)).filter(|&(j, _)| j < pts);
+            for (point, wj) in points {
+                let base = (p.seg * pts + point) * stride;
+                let grid = &st.dbar.grid[base..base + stride];
+                self.add_point_curvature(c, out, y * wj, grid, &mut st.curv.peaks);
             }
-            sc.hx.fill(0.0);
-            for ((a, b), &x) in f.hessian_pattern().lower().entries().zip(h.iter()) {
-                if a < n && b < n {
-                    sc.hx[a * n + b] += x;
-                    if a != b {
-                        sc.hx[b * n + a] += x;
-                    }
-                }
-            }
-            sensitivities(grid, n, m, &mut sc.g);
-            // ∇²g·G, then Gᵀ(∇²g·G) into the block, over the entries the element holds.
-            for r in 0..n {
-                for j in 0..dz {
-                    sc.hg[r * dz + j] = (0..n).map(|q| sc.hx[r * n + q] * sc.g[q * dz + j]).sum();
-                }
-            }
+            // Into the segment's block, over the entries the element holds.
+            let sc = &st.curv.peaks;
             let (map, d) = (&self.exact.segments[p.seg], self.elements[p.seg].cols.len());
             let block = &mut st.curv.exact[p.seg];
             for (a, pa) in map.iter().enumerate() {
                 let Some(pa) = pa else { continue };
                 for (b, pb) in map.iter().enumerate() {
                     let Some(pb) = pb else { continue };
-                    block[pa * d + pb] +=
-                        (0..n).map(|r| sc.g[r * dz + a] * sc.hg[r * dz + b]).sum::<f64>();
+                    block[pa * d + pb] += sc.sum[a * dz + b];
                 }
+            }
+        }
+    }
+
+    /// Adds `weight·Gᵀ∇²g_o G` at one grid point (its block `[x, Φ, B⁻, B⁺]`) to `sc.sum`
+    /// (`dz × dz`); nothing when the evaluation fails.
+    fn add_point_curvature(
+        &self,
+        c: usize,
+        out: usize,
+        weight: f64,
+        grid: &[f64],
+        sc: &mut PeakCurvatureScratch,
+    ) {
+        let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
+        let dz = n + 2 * m + 1;
+        let f = &self.ocp.interval_constraints[c].function;
+        sc.input[..n].copy_from_slice(&grid[..n]);
+        sc.input[n..].fill(0.0);
+        let nout = f.n_outputs();
+        sc.weights[..nout].fill(0.0);
+        sc.weights[out] = weight;
+        let nnz = f.hessian_pattern().nnz();
+        let (vals, h) = (&mut sc.values[..nout], &mut sc.hessian[..nnz]);
+        if f.eval_hessian(&sc.input, &sc.weights[..nout], &mut sc.hws[c], vals, None, h).is_err()
+            || h.iter().any(|x| !x.is_finite())
+        {
+            return;
+        }
+        sc.hx.fill(0.0);
+        for ((a, b), &x) in f.hessian_pattern().lower().entries().zip(h.iter()) {
+            if a < n && b < n {
+                sc.hx[a * n + b] += x;
+                if a != b {
+                    sc.hx[b * n + a] += x;
+                }
+            }
+        }
+        sensitivities(grid, n, m, &mut sc.g);
+        // ∇²g·G, then Gᵀ(∇²g·G).
+        for r in 0..n {
+            for j in 0..dz {
+                sc.hg[r * dz + j] = (0..n).map(|q| sc.hx[r * n + q] * sc.g[q * dz + j]).sum();
+            }
+        }
+        for a in 0..dz {
+            for b in 0..dz {
+                sc.sum[a * dz + b] +=
+                    (0..n).map(|r| sc.g[r * dz + a] * sc.hg[r * dz + b]).sum::<f64>();
             }
         }
     }
