@@ -80,6 +80,7 @@ pub fn checks(t: &SuiteTask) -> Checks {
             .collect(),
         table: task.table_height,
         balls: t.balls.clone(),
+        margin: task.collision.as_ref().map_or(0.0, |c| c.margin),
     }
 }
 

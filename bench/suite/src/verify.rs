@@ -265,6 +265,8 @@ pub struct Checks {
     pub table: Option<f64>,
     /// Ball obstacles: (centre, radius).
     pub balls: Vec<(Vector3<f64>, f64)>,
+    /// The clearance the task keeps from every ball (m).
+    pub margin: f64,
 }
 
 /// The largest violation found: its size (in the constraint's units) and what it is.
@@ -308,7 +310,7 @@ pub fn check(c: &Checks, dense: &Dense, node_times: &[f64]) -> Worst {
         }
         for (ci, (a, b, rc)) in c.robot.capsules(q).iter().enumerate() {
             for (bc, rb) in &c.balls {
-                let clearance = point_segment(bc, a, b) - rc - rb;
+                let clearance = point_segment(bc, a, b) - rc - rb - c.margin;
                 note(-clearance, &|| format!("capsule {ci} against the ball at t = {t:.3}"));
             }
         }
