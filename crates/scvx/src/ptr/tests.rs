@@ -342,6 +342,38 @@ fn damped_bfgs_refuses_a_zero_step() {
     assert_eq!(h, vec![1.0, 0.0, 0.0, 1.0]);
 }
 
+/// The double integrator made nonlinear (`v̇ = a − ½·sin(p)·v`), with the interval constraint
+/// `v² + 0.3·sin p − 0.25 ≤ 0` on the `intervals` segments, an inequality `ineq(p, v, a) ≤ 0`
+/// at nodes 1 and 2 and a ball `‖(p·v, cos p − v²)‖ ≤ 0.5` at node 3: curvature in every row
+/// kind.
+fn curved_problem(
+    nodes: usize,
+    intervals: Vec<usize>,
+    ineq: impl Fn(&Expr, &Expr, &Expr) -> Expr,
+) -> super::Ocp {
+    use super::{NodalConstraint, NodalKind};
+    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
+    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, intervals);
+    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    let vdot = &a - &(&(&p.sin() * &v) * 0.5);
+    ocp.dynamics =
+        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
+    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
+    let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
+    let nodal = |name: &str, f: Expr, nodes: Vec<usize>, kind| NodalConstraint {
+        name: name.into(),
+        function: Function::compile(&[f], groups).unwrap(),
+        nodes,
+        kind,
+        output_names: vec![],
+    };
+    ocp.nodal = vec![
+        nodal("ineq", ineq(&p, &v, &a), vec![1, 2], NodalKind::Inequality),
+        nodal("ball", ball, vec![3], NodalKind::Ball { radius: 0.5 }),
+    ];
+    ocp
+}
+
 /// The exact curvature blocks are the Lagrangian's second derivatives, as the subproblem
 /// assembles them (every column placed, every sign): `Σ_e H_e·s` equals the directional
 /// derivative of `Aᵀy` — central differences of the subproblem's own constraint
@@ -350,33 +382,11 @@ fn damped_bfgs_refuses_a_zero_step() {
 /// (zero on the peak rows, whose curvature has its own test).
 #[test]
 fn exact_curvature_blocks_are_the_lagrangians_second_derivatives() {
-    use super::{NodalConstraint, NodalKind, Ptr, PtrSettings};
+    use super::{Ptr, PtrSettings};
     let nodes = 4;
-    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
-    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![]);
-    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
-    let vdot = &a - &(&(&p.sin() * &v) * 0.5);
-    ocp.dynamics =
-        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
-    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
-    let ineq = Expr::concat(&[&(&(&p * &p) + &(&v * &a)) - 1.0, &p.sin() * &v]);
-    let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
-    ocp.nodal = vec![
-        NodalConstraint {
-            name: "ineq".into(),
-            function: Function::compile(&[ineq], groups).unwrap(),
-            nodes: vec![1, 2],
-            kind: NodalKind::Inequality,
-            output_names: vec![],
-        },
-        NodalConstraint {
-            name: "ball".into(),
-            function: Function::compile(&[ball], groups).unwrap(),
-            nodes: vec![3],
-            kind: NodalKind::Ball { radius: 0.5 },
-            output_names: vec![],
-        },
-    ];
+    let ineq =
+        |p: &Expr, v: &Expr, a: &Expr| Expr::concat(&[&(&(p * p) + &(v * a)) - 1.0, &p.sin() * v]);
+    let ocp = curved_problem(nodes, vec![], ineq);
     let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
     settings.discretization.substeps = 40;
     let mut ptr = Ptr::new(ocp, settings).unwrap();
@@ -442,33 +452,9 @@ fn exact_curvature_blocks_are_the_lagrangians_second_derivatives() {
 /// sign slip in any row kind would leave a first-order shift (a ratio of 2).
 #[test]
 fn correction_shifts_are_second_order_in_the_step() {
-    use super::{NodalConstraint, NodalKind, Ptr, PtrSettings};
+    use super::{Ptr, PtrSettings};
     let nodes = 5;
-    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
-    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![1]);
-    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
-    let vdot = &a - &(&(&p.sin() * &v) * 0.5);
-    ocp.dynamics =
-        Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
-    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
-    let ineq = &(&p * &p) + &(&v * &a) - 1.0;
-    let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
-    ocp.nodal = vec![
-        NodalConstraint {
-            name: "ineq".into(),
-            function: Function::compile(&[ineq], groups).unwrap(),
-            nodes: vec![1, 2],
-            kind: NodalKind::Inequality,
-            output_names: vec![],
-        },
-        NodalConstraint {
-            name: "ball".into(),
-            function: Function::compile(&[ball], groups).unwrap(),
-            nodes: vec![3],
-            kind: NodalKind::Ball { radius: 0.5 },
-            output_names: vec![],
-        },
-    ];
+    let ocp = curved_problem(nodes, vec![1], |p, v, a| &(&(p * p) + &(v * a)) - 1.0);
     let settings = PtrSettings { second_order_correction: true, ..PtrSettings::default() };
     let mut ptr = Ptr::new(ocp, settings).unwrap();
     let (u0, s0, vp0, _) = ptr.layout();
