@@ -1,7 +1,11 @@
-//! The initial guess: IK through the waypoints (from the start configuration if given),
-//! timed by a spline at the joint limits.
+//! The initial guess: IK through the waypoints (from the start configuration if given; by
+//! default the branch path of least travel under the velocity limits), timed by a spline at
+//! the joint limits.
 
-use armature_ik::{IkSettings, IkTrajectory, JointSpline, Keyframe, ik_interpolation};
+use armature_ik::{
+    BranchSettings, IkSettings, IkTrajectory, IkWorkspace, JointSpline, Keyframe, Mode, Start,
+    Target, ik_branch_search, ik_interpolation, solve,
+};
 
 use crate::dynamics::Resolved;
 use crate::{ArmError, ArmTask, TaskItem};
@@ -31,9 +35,32 @@ pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess
         .collect();
     let settings = IkSettings { restarts: task.initialization.restarts, ..IkSettings::default() };
     let seed = task.start.clone().unwrap_or_else(|| vec![0.0; n]);
-    let mut ik =
-        ik_interpolation(&task.chain, &keyframes, &seed, &settings, task.initialization.mode)
-            .map_err(|e| bad(format!("IK initialization: {e}")))?;
+    let mut ik = match task.initialization.mode {
+        Mode::Branches => {
+            // The task's start: the given one, or the IK of the first waypoint from zero.
+            let first = match (&task.start, keyframes.first()) {
+                (None, Some(first)) => first_waypoint_ik(task, first, &seed, &settings)?,
+                _ => seed.clone(),
+            };
+            let start = Start::Fixed(&first);
+            let weights: Vec<f64> = task.velocity_limit.iter().map(|v| 1.0 / v).collect();
+            let search = BranchSettings {
+                samples: task.initialization.restarts,
+                ..BranchSettings::default()
+            };
+            ik_branch_search(
+                &task.chain,
+                &keyframes,
+                start,
+                &settings,
+                &search,
+                &weights,
+                &mut |_, _| 0.0,
+            )
+        }
+        mode => ik_interpolation(&task.chain, &keyframes, &seed, &settings, mode),
+    }
+    .map_err(|e| bad(format!("IK initialization: {e}")))?;
     if let Some(start) = &task.start {
         ik.q[0] = start.clone();
     }
@@ -47,6 +74,25 @@ pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess
     let mut dilation: Vec<f64> = knots.iter().map(|h| h * duration * (nodes - 1) as f64).collect();
     dilation.push(dilation[nodes - 2]);
     Ok(Guess { ik, spline, duration, dilation })
+}
+
+/// The IK of the first waypoint from `seed` (with the settings' restarts): the start
+/// configuration of a task that gives none.
+fn first_waypoint_ik(
+    task: &ArmTask,
+    first: &Keyframe,
+    seed: &[f64],
+    settings: &IkSettings,
+) -> Result<Vec<f64>, ArmError> {
+    let bad =
+        |m: String| ArmError::new(TaskItem::Initialization, format!("IK initialization: {m}"));
+    let position = nalgebra::Vector3::from(first.position);
+    let target = match first.quaternion_wxyz {
+        Some(q) => Target::pose(position, q).map_err(|e| bad(e.to_string()))?,
+        None => Target::position(position),
+    };
+    let mut ws = IkWorkspace::new(&task.chain);
+    Ok(solve(&task.chain, &target, seed, settings, &mut ws).map_err(|e| bad(e.to_string()))?.q)
 }
 
 /// The guess's duration: the spline's shortest under the velocity limits and the

@@ -123,15 +123,16 @@ pub struct TimeWindow {
 /// How the initial guess is made: IK through the waypoints (interpolated in task space).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Initialization {
-    /// Sequential (each node from the previous) or parallel IK.
+    /// Branch search (default), sequential (each node from the previous) or parallel IK.
     pub mode: Mode,
-    /// Random restarts of a node whose IK fails.
+    /// Random restarts of a node whose IK fails; for [`Mode::Branches`], the random
+    /// configurations solved from at each waypoint.
     pub restarts: usize,
 }
 
 impl Default for Initialization {
     fn default() -> Self {
-        Initialization { mode: Mode::Sequential, restarts: 8 }
+        Initialization { mode: Mode::Branches, restarts: 8 }
     }
 }
 

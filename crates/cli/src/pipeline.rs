@@ -225,10 +225,11 @@ fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, Lo
     let mode = match task.initialization.ik.get_ref().as_str() {
         "sequential" => Mode::Sequential,
         "parallel" => Mode::Parallel,
+        "branches" => Mode::Branches,
         other => {
             return Err(src.error(
                 &task.initialization.ik,
-                format!("ik '{other}': give \"sequential\" or \"parallel\""),
+                format!("ik '{other}': give \"branches\", \"sequential\" or \"parallel\""),
             ));
         }
     };

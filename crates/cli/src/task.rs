@@ -403,12 +403,13 @@ fn yes() -> bool {
 #[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InitSpec {
-    /// `"sequential"` (each node seeded from the previous: a continuous path; default) or
-    /// `"parallel"`.
-    #[serde(default = "sequential")]
+    /// `"branches"` (the path of least travel under the velocity limits over IK branches;
+    /// default), `"sequential"` (each node seeded from the previous) or `"parallel"`.
+    #[serde(default = "branches")]
     #[schemars(with = "String")]
     pub ik: Spanned<String>,
-    /// IK random restarts per node (at most 1,000). Default 8.
+    /// IK random restarts per node whose warm start fails (`"branches"`: random
+    /// configurations solved from at each waypoint); at most 1,000. Default 8.
     #[serde(default = "eight")]
     #[schemars(with = "usize")]
     pub restarts: Spanned<usize>,
@@ -416,12 +417,12 @@ pub struct InitSpec {
 
 impl Default for InitSpec {
     fn default() -> Self {
-        InitSpec { ik: sequential(), restarts: eight() }
+        InitSpec { ik: branches(), restarts: eight() }
     }
 }
 
-fn sequential() -> Spanned<String> {
-    Spanned::new(0..0, "sequential".into())
+fn branches() -> Spanned<String> {
+    Spanned::new(0..0, "branches".into())
 }
 
 fn eight() -> Spanned<usize> {

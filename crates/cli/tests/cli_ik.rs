@@ -83,9 +83,9 @@ fn single_target_converges_or_reports_best_effort() {
 }
 
 #[test]
-fn keyframes_in_both_modes() {
+fn keyframes_in_every_mode() {
     let path = temp_file("ik", "seed.toml", SEED_KEYFRAMES);
-    for extra in [&[][..], &["--sequential"][..]] {
+    for extra in [&[][..], &["--sequential"][..], &["--branches"][..]] {
         let mut args = vec!["ik", "--keyframes", path.to_str().unwrap()];
         args.extend_from_slice(extra);
         let (code, out, err) = armature(&args);
@@ -95,7 +95,19 @@ fn keyframes_in_both_modes() {
         assert_eq!(nodes.len(), 11);
         assert!(nodes.iter().all(|n| n["converged"] == true));
         assert!(v["max_joint_step"].as_f64().unwrap() > 0.0);
+        let mode = if extra.is_empty() {
+            "Parallel"
+        } else if extra[0] == "--sequential" {
+            "Sequential"
+        } else {
+            "Branches"
+        };
+        assert_eq!(v["mode"], mode);
     }
+    // One mode at a time.
+    let (code, _, err) =
+        armature(&["ik", "--keyframes", path.to_str().unwrap(), "--sequential", "--branches"]);
+    assert_eq!(code, 2, "{err}");
 }
 
 #[test]

@@ -30,6 +30,10 @@ pub enum Mode {
     Sequential,
     /// Every node from the same seed, solved concurrently (rayon).
     Parallel,
+    /// The path of least travel over IK branches ([`crate::ik_branch_search`] from the seed,
+    /// weighted by the inverse velocity limits where the chain has them): no branch jumps
+    /// where a continuous path exists.
+    Branches,
 }
 
 /// Joint trajectory from task-space keyframes.
@@ -141,6 +145,21 @@ pub fn ik_interpolation(
                 out.push(r);
             }
             out
+        }
+        Mode::Branches => {
+            let weights: Vec<f64> =
+                chain.joints().iter().map(|j| j.limits.velocity.map_or(1.0, |v| 1.0 / v)).collect();
+            let search = crate::BranchSettings::default();
+            let start = crate::Start::Seed(seed);
+            return crate::ik_branch_search(
+                chain,
+                keyframes,
+                start,
+                settings,
+                &search,
+                &weights,
+                &mut |_, _| 0.0,
+            );
         }
         Mode::Parallel => targets
             .par_iter()

@@ -40,8 +40,13 @@ pub struct IkArgs {
     pub keyframes: Option<PathBuf>,
     /// With --keyframes: seed each node from the previous one (continuous path) instead of
     /// solving all nodes in parallel from the same seed.
-    #[arg(long, requires = "keyframes")]
+    #[arg(long, requires = "keyframes", conflicts_with = "branches")]
     pub sequential: bool,
+    /// With --keyframes: the path of least joint travel over IK branches (a beam search:
+    /// no jumps between branches where a continuous path exists; --restarts random
+    /// configurations at each keyframe).
+    #[arg(long, requires = "keyframes")]
+    pub branches: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -100,7 +105,11 @@ pub fn run(args: &IkArgs, out: &mut dyn std::io::Write) -> Result<(), CliError> 
         if let (Some(s), None) = (&file.seed, &args.seed) {
             seed.clone_from(s);
         }
-        let mode = if args.sequential { Mode::Sequential } else { Mode::Parallel };
+        let mode = match (args.sequential, args.branches) {
+            (true, _) => Mode::Sequential,
+            (_, true) => Mode::Branches,
+            _ => Mode::Parallel,
+        };
         let t = ik_interpolation(&chain, &file.keyframes, &seed, &settings, mode)
             .map_err(CliError::bad_input)?;
         print(

@@ -144,10 +144,11 @@ fn weighed(first: usize, w: &Stencil, g: &impl Fn(usize) -> f64) -> f64 {
     w.iter().enumerate().filter(|(_, w)| **w != 0.0).map(|(i, w)| w * g(first + i)).sum()
 }
 
-/// The peak of `g` over the grid points `0..pts`: `(ĝ, first grid point of the stencil, its
-/// Lagrange weights)`. The discrete maximum is refined by the parabola through it and its
-/// neighbours (the vertex, when the parabola is concave and the vertex lies between them);
-/// `ĝ = Σ w_i g_i` (the weights sum to 1).
+/// The peak of `g` over the grid points `0..pts`, bounded from above: `(ĝ, first grid point
+/// of the stencil, its weights)`. The discrete maximum is refined by the parabola through it
+/// and its neighbours (the vertex, when the parabola is concave and the vertex lies between
+/// them), plus a bound on what the parabola misses of a cubic (`cubic_margin`); `ĝ = Σ w_i
+/// g_i`.
 pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, Stencil) {
     let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
     if pts < 3 {
@@ -158,8 +159,23 @@ pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, Sten
     let curv = gm - 2.0 * g0 + gp;
     let theta =
         if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-1.0, 1.0) } else { best as f64 - c as f64 };
-    let w = parabola(theta);
-    (weighed(c - 1, &w, &g), c - 1, w)
+    bounded_parabola(pts, c, theta, &g)
+}
+
+/// The parabola through `c − 1, c, c + 1` at `θ` plus the cubic margin, as a stencil from two
+/// points before `c` (where there are two): (value, the stencil's first point, its weights).
+fn bounded_parabola(
+    pts: usize,
+    c: usize,
+    theta: f64,
+    g: &impl Fn(usize) -> f64,
+) -> (f64, usize, Stencil) {
+    let first = c.saturating_sub(2);
+    let mut w = [0.0; STENCIL];
+    let at = c - 1 - first;
+    w[at..at + 3].copy_from_slice(&parabola(theta)[..3]);
+    cubic_margin(pts, c, first, g, &mut w);
+    (weighed(first, &w, g), first, w)
 }
 
 /// The largest value of `g` within half a grid step of grid point `j` of `pts` (on the
@@ -184,13 +200,7 @@ pub(super) fn local_peak(pts: usize, j: usize, g: impl Fn(usize) -> f64) -> (f64
     let curv = gm - 2.0 * g0 + gp;
     let own = j as f64 - c as f64;
     let theta = if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(lo, hi) } else { own };
-    // The stencil starts two points before the centre where there are two.
-    let first = c.saturating_sub(2);
-    let mut w = [0.0; STENCIL];
-    let at = c - 1 - first;
-    w[at..at + 3].copy_from_slice(&parabola(theta)[..3]);
-    cubic_margin(pts, c, first, &g, &mut w);
-    (weighed(first, &w, &g), first, w)
+    bounded_parabola(pts, c, theta, &g)
 }
 
 /// Adds to `w` (a stencil from `first`) a bound on what the parabola through `c − 1, c,

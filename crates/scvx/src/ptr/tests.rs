@@ -61,7 +61,7 @@ fn interval_values_kept_for_the_reference_are_its_own() {
     let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
     let ocp = double_integrator(nodes, 10.0, [Some(1.0), Some(0.0)], g, vec![]);
     let mut ptr =
-        Ptr::new(ocp, PtrSettings { max_iterations: 40, ..PtrSettings::default() }).unwrap();
+        Ptr::new(ocp, PtrSettings { max_iterations: 80, ..PtrSettings::default() }).unwrap();
     let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
     ptr.start(&x, &vec![0.0; nodes], &vec![3.0; nodes]).unwrap();
     let (mut kept, mut rejected) = (0, 0);
@@ -269,6 +269,28 @@ proptest! {
         let last = (pts - 1) as f64;
         let peak = (0..=2000).map(|i| g(last * i as f64 / 2000.0)).fold(f64::MIN, f64::max);
         prop_assert!(rows >= peak - 1e-12, "rows {rows} below the segment's peak {peak}");
+    }
+
+    /// For a cubic `g` on a segment's grid, the segment's peak row (`peak_of`: the parabola
+    /// around the discrete maximum and the cubic margin) bounds `g` everywhere within a step
+    /// of the parabola's centre, and its value is its weights' sum `Σ w_i g_i`.
+    #[test]
+    fn the_peak_row_bounds_a_cubic_around_the_discrete_maximum(
+        c in prop::array::uniform4(-1.0f64..1.0),
+        pts in 4usize..9,
+    ) {
+        use super::evaluate::peak_of;
+        let g = |t: f64| c[0] + c[1] * t + c[2] * t * t + c[3] * t * t * t;
+        let (row, first, w) = peak_of(pts, |i| g(i as f64));
+        let sum: f64 = w.iter().enumerate().filter(|(_, w)| **w != 0.0)
+            .map(|(i, w)| w * g((first + i) as f64)).sum();
+        prop_assert!((row - sum).abs() < 1e-12);
+        prop_assert!(w.iter().enumerate().all(|(i, w)| *w == 0.0 || first + i < pts));
+        let best = (0..pts).fold(0, |b, j| if g(j as f64) > g(b as f64) { j } else { b });
+        let centre = best.clamp(1, pts - 2) as f64;
+        let near = (0..=1000).map(|i| g(centre - 1.0 + 2.0 * i as f64 / 1000.0));
+        let peak = near.fold(f64::MIN, f64::max);
+        prop_assert!(row >= peak - 1e-12, "row {row} below the peak {peak} near the maximum");
     }
 
     /// Each row's Lagrangian-merit term `λ|d| + shift` lies in `[0, 2σλ|d|]` whatever the

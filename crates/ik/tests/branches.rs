@@ -1,0 +1,183 @@
+//! Branch search: a continuous joint path where node-by-node IK jumps branches, a fixed start
+//! kept, the node cost honoured, unreachable in-between nodes interpolated, bad weights refused.
+
+use armature_ik::{
+    BranchSettings, IkError, IkSettings, IkTrajectory, Keyframe, Mode, Start, ik_branch_search,
+    ik_interpolation,
+};
+use armature_kinematics::{Chain, robots};
+use nalgebra::Vector3;
+
+const DOWN: [f64; 4] = [std::f64::consts::FRAC_1_SQRT_2, 0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0];
+
+/// A pick-and-place on arm7 (the suite's arm7-06) on which node-by-node IK from the previous
+/// node jumps branches: its warm start fails at the grasp, and a random restart lands on
+/// another branch.
+fn jumping_pick_and_place() -> Vec<Keyframe> {
+    let k = |node, position, q| Keyframe { node, position, quaternion_wxyz: Some(q) };
+    vec![
+        k(0, [0.69, 0.0, 0.34], [1.0, 0.0, 0.0, 0.0]),
+        k(2, [0.3102828815569065, -0.3202638470681547, 0.15135080573911563], DOWN),
+        k(4, [0.3102828815569065, -0.3202638470681547, 0.04147667176510572], DOWN),
+        k(6, [0.3102828815569065, -0.3202638470681547, 0.15135080573911563], DOWN),
+        k(8, [0.3147912461474512, 0.2337521192530075, 0.1725942553399504], DOWN),
+        k(10, [0.3147912461474512, 0.2337521192530075, 0.06272012136594049], DOWN),
+    ]
+}
+
+/// Σ over steps of the largest joint change.
+fn travel(ik: &IkTrajectory) -> f64 {
+    ik.q.windows(2)
+        .map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+        .sum()
+}
+
+/// The keyframes' poses, by the chain's own FK: position error (m) and rotation angle (rad).
+fn keyframe_errors(chain: &Chain, ik: &IkTrajectory, keyframes: &[Keyframe]) -> (f64, f64) {
+    let mut ws = chain.fk_workspace();
+    let (mut pe, mut oe) = (0.0f64, 0.0f64);
+    for k in keyframes {
+        chain.forward(&ik.q[k.node], &mut ws).unwrap();
+        let (r, p) = ws.ee_matrix();
+        pe = pe.max((p - Vector3::from(k.position)).norm());
+        if let Some([w, x, y, z]) = k.quaternion_wxyz {
+            let want =
+                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+            let got = nalgebra::UnitQuaternion::from_matrix(&r);
+            oe = oe.max(got.angle_to(&want));
+        }
+    }
+    (pe, oe)
+}
+
+#[test]
+fn a_pick_and_place_that_node_by_node_ik_jumps_gets_a_continuous_path() {
+    let arm = robots::arm7();
+    let keyframes = jumping_pick_and_place();
+    let settings = IkSettings { restarts: 8, ..IkSettings::default() };
+    let seed = [0.0; 7];
+    let sequential =
+        ik_interpolation(&arm, &keyframes, &seed, &settings, Mode::Sequential).unwrap();
+    // The premise: node by node, the path jumps (a joint moves more than 3 rad in one step).
+    assert!(sequential.max_joint_step > 3.0, "{}", sequential.max_joint_step);
+    let search = BranchSettings::default();
+    let ik = ik_branch_search(
+        &arm,
+        &keyframes,
+        Start::Seed(&seed),
+        &settings,
+        &search,
+        &[1.0; 7],
+        &mut |_, _| 0.0,
+    )
+    .unwrap();
+    assert!(ik.all_converged());
+    assert!(ik.max_joint_step < 1.0, "{}", ik.max_joint_step);
+    assert!(travel(&ik) < 0.5 * travel(&sequential), "{} vs {}", travel(&ik), travel(&sequential));
+    let (pe, oe) = keyframe_errors(&arm, &ik, &keyframes);
+    assert!(pe < 1e-5 && oe < 1e-5, "{pe} {oe}");
+    // Through ik_interpolation's mode too, and reproducibly.
+    let again = ik_interpolation(&arm, &keyframes, &seed, &settings, Mode::Branches).unwrap();
+    assert!(again.all_converged() && again.max_joint_step < 1.0, "{}", again.max_joint_step);
+}
+
+#[test]
+fn a_fixed_start_is_kept_and_the_path_leaves_it_continuously() {
+    let arm = robots::arm7();
+    let mut keyframes = jumping_pick_and_place();
+    keyframes.remove(0);
+    let start = [0.0, -0.4, 0.0, 1.2, 0.0, 0.8, 0.0];
+    let settings = IkSettings { restarts: 8, ..IkSettings::default() };
+    let search = BranchSettings::default();
+    let ik = ik_branch_search(
+        &arm,
+        &keyframes,
+        Start::Fixed(&start),
+        &settings,
+        &search,
+        &[1.0; 7],
+        &mut |_, _| 0.0,
+    )
+    .unwrap();
+    assert_eq!(ik.q[0], start.to_vec());
+    assert!(ik.nodes[1..].iter().all(|r| r.converged));
+    assert!(ik.max_joint_step < 1.5, "{}", ik.max_joint_step);
+}
+
+#[test]
+fn the_node_cost_chooses_the_branch() {
+    let ur5e = robots::ur5e();
+    let keyframes = [
+        Keyframe { node: 0, position: [0.4, -0.3, 0.3], quaternion_wxyz: None },
+        Keyframe { node: 4, position: [0.4, 0.3, 0.2], quaternion_wxyz: None },
+    ];
+    let settings = IkSettings::default();
+    let search = BranchSettings::default();
+    for elbow_up in [true, false] {
+        // Elbow (joint 3) of the wrong sign costs 100 per node.
+        let mut cost = |_: usize, q: &[f64]| if (q[2] > 0.0) == elbow_up { 0.0 } else { 100.0 };
+        let seed = [0.0; 6];
+        let ik = ik_branch_search(
+            &ur5e,
+            &keyframes,
+            Start::Seed(&seed),
+            &settings,
+            &search,
+            &[1.0; 6],
+            &mut cost,
+        )
+        .unwrap();
+        assert!(ik.all_converged());
+        assert!(ik.q.iter().all(|q| (q[2] > 0.0) == elbow_up), "elbow up {elbow_up}: {:?}", ik.q);
+    }
+}
+
+#[test]
+fn an_unreachable_node_between_keyframes_takes_the_interpolation_of_its_neighbours() {
+    let ur5e = robots::ur5e();
+    // Straight through the base: the middle node's target lies on the first joint's axis,
+    // which the UR5e's shoulder offset keeps the tool from.
+    let keyframes = [
+        Keyframe { node: 0, position: [0.5, 0.0, 0.3], quaternion_wxyz: None },
+        Keyframe { node: 2, position: [-0.5, 0.0, 0.3], quaternion_wxyz: None },
+    ];
+    let search = BranchSettings { samples: 32, ..BranchSettings::default() };
+    let seed = [0.0; 6];
+    let ik = ik_branch_search(
+        &ur5e,
+        &keyframes,
+        Start::Seed(&seed),
+        &IkSettings::default(),
+        &search,
+        &[1.0; 6],
+        &mut |_, _| 0.0,
+    )
+    .unwrap();
+    assert!(ik.nodes[0].converged && ik.nodes[2].converged);
+    assert!(!ik.nodes[1].converged, "the middle node is unreachable: {:?}", ik.nodes[1]);
+    for i in 0..6 {
+        let mid = 0.5 * (ik.q[0][i] + ik.q[2][i]);
+        assert!((ik.q[1][i] - mid).abs() < 1e-12, "joint {i}: {} vs {mid}", ik.q[1][i]);
+    }
+}
+
+#[test]
+fn weights_of_the_wrong_length_or_sign_are_refused() {
+    let arm = robots::arm7();
+    let keyframes = jumping_pick_and_place();
+    let search = BranchSettings::default();
+    let seed = [0.0; 7];
+    for weights in [vec![1.0; 6], vec![-1.0; 7], vec![f64::NAN; 7]] {
+        let e = ik_branch_search(
+            &arm,
+            &keyframes,
+            Start::Seed(&seed),
+            &IkSettings::default(),
+            &search,
+            &weights,
+            &mut |_, _| 0.0,
+        )
+        .unwrap_err();
+        assert!(matches!(e, IkError::BadSeed(ref m) if m.contains("weights")), "{e}");
+    }
+}
