@@ -14,7 +14,7 @@ use armature_symbolic::HessianWorkspace;
 
 use crate::SegmentHessianWorkspace;
 
-use super::psd::project_psd;
+use super::psd::clip_below;
 use super::*;
 
 /// The least eigenvalue of a projected block, relative to the smallest trust-region weight in
@@ -270,7 +270,7 @@ impl Ptr {
                     block[a * d + a] += share;
                 }
                 let least = shares.iter().copied().fold(f64::INFINITY, f64::min);
-                project_psd(block, d, PSD_FLOOR * least, &mut cs.eig_v, &mut cs.eig_l);
+                clip_below(block, d, PSD_FLOOR * least, &mut cs.eig_v, &mut cs.eig_l);
                 for (a, share) in shares.iter().enumerate() {
                     block[a * d + a] -= share;
                 }

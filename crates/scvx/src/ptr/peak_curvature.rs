@@ -12,7 +12,9 @@
 //!
 //! A row's value is a weighted sum over its stencil's grid points (a parabola's vertex, a
 //! grid point's cubic margin: `evaluate.rs`), so its curvature is `y·Σ w_i G_iᵀ∇²g_o G_i`
-//! with the weights held fixed. Interval constraints read only the states (checked in
+//! with the weights held fixed. Rows share grid points (neighbouring stencils, several
+//! outputs), so the weights are gathered per point and each point's Hessian, summed over
+//! its constraints and outputs, is sandwiched once. Interval constraints read only the states (checked in
 //! `start`), so their Hessian's state block is all there is.
 
 use armature_symbolic::HessianWorkspace;
@@ -24,15 +26,19 @@ use super::*;
 pub(super) struct PeakCurvatureScratch {
     hws: Vec<HessianWorkspace>,
     input: Vec<f64>,
-    weights: Vec<f64>,
     values: Vec<f64>,
     hessian: Vec<f64>,
-    /// `∇²g_o` over the states (dense `n×n`) and the sensitivities `G` (`n × dz`, row-major),
-    /// and `∇²g_o·G`.
+    /// Per interval constraint, grid point and output (laid out as `NodalEval::fgrid`): the
+    /// rows' weights `Σ y·w_i` on that point's value.
+    point_weights: Vec<f64>,
+    /// The states in which some interval constraint is curved (its Hessian's state rows).
+    curved: Vec<usize>,
+    /// `Σ_c ∇²(w_c·g_c)` over the states at one grid point (dense `n×n`), the sensitivities
+    /// `G` (`n × dz`, row-major), and `∇²g·G`.
     hx: Vec<f64>,
     g: Vec<f64>,
     hg: Vec<f64>,
-    /// A row's `Σ w_i G_iᵀ∇²g_o G_i` over its stencil (`dz × dz`).
+    /// A segment's `Σ_i G_iᵀ H_i G_i` over its grid points (`dz × dz`, upper triangle).
     sum: Vec<f64>,
 }
 
@@ -42,12 +48,21 @@ impl Ptr {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
         let fs = || self.ocp.interval_constraints.iter().map(|c| &c.function);
         let dz = n + 2 * m + 1;
+        let mut curved: Vec<usize> = fs()
+            .flat_map(|f| f.hessian_pattern().lower().entries().collect::<Vec<_>>())
+            .flat_map(|(a, b)| [a, b])
+            .filter(|&a| a < n)
+            .collect();
+        curved.sort_unstable();
+        curved.dedup();
+        let grid_values = self.intervals.iter().map(|i| i.val0 + i.points * i.nout).max();
         PeakCurvatureScratch {
             hws: fs().map(|f| f.hessian_workspace()).collect(),
             input: vec![0.0; n + m],
-            weights: vec![0.0; fs().map(|f| f.n_outputs()).max().unwrap_or(0)],
             values: vec![0.0; fs().map(|f| f.n_outputs()).max().unwrap_or(0)],
             hessian: vec![0.0; fs().map(|f| f.hessian_pattern().nnz()).max().unwrap_or(0)],
+            point_weights: vec![0.0; grid_values.unwrap_or(0)],
+            curved,
             hx: vec![0.0; n * n],
             g: vec![0.0; n * dz],
             hg: vec![0.0; n * dz],
@@ -55,68 +70,108 @@ impl Ptr {
         }
     }
 
-    /// Each active interval-constraint peak row's `y·Σ w_i G_iᵀ∇²g_o G_i` at the reference (`st.dbar`'s
-    /// grid) into its segment's block of `st.curv.exact`. A row whose evaluation fails
-    /// contributes nothing.
+    /// Each active interval-constraint peak row's `y·Σ w_i G_iᵀ∇²g_o G_i` at the reference
+    /// (`st.dbar`'s grid) into its segment's block of `st.curv.exact`. The rows' weights are
+    /// gathered per grid point first, so each point costs one Hessian evaluation per
+    /// constraint and one product `GᵀHG` whatever the number of rows whose stencils cover it.
+    /// A point whose evaluation fails contributes nothing of that constraint.
     pub(super) fn peak_curvature(&self, st: &mut Iterate) {
-        let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let (stride, pts) = (self.ocp.dynamics.grid_stride(), st.dbar.grid_points);
-        let dz = n + 2 * m + 1;
+        let pts = st.dbar.grid_points;
+        let sc = &mut st.curv.peaks;
+        sc.point_weights.fill(0.0);
         for (i, p) in self.peaks.iter().enumerate() {
             let PeakOf::Function { c, out } = p.of else { continue };
             let y = st.duals[p.row];
             if y <= 0.0 || !y.is_finite() || !self.row_active(&st.ev, p) {
                 continue;
             }
+            let meta = &self.intervals[c];
             let (first, w) = st.ev.stencils[i];
-            st.curv.peaks.sum.fill(0.0);
-            let points = w.iter().enumerate().filter(|(_, w)| **w != 0.0);
-            let points = points.map(|(j, &wj)| (first + j, wj)).filter(|&(j, _)| j < pts);
-            for (point, wj) in points {
-                let base = (p.seg * pts + point) * stride;
-                let grid = &st.dbar.grid[base..base + stride];
-                self.add_point_curvature(c, out, y * wj, grid, &mut st.curv.peaks);
+            for (j, &wj) in w.iter().enumerate().filter(|(_, w)| **w != 0.0) {
+                if first + j < pts {
+                    let point = (p.seg - meta.first) * pts + first + j;
+                    sc.point_weights[meta.val0 + point * meta.nout + out] += y * wj;
+                }
             }
-            // Into the segment's block, over the entries the element holds.
-            let sc = &st.curv.peaks;
-            let (map, d) = (&self.exact.segments[p.seg], self.elements[p.seg].cols.len());
-            let block = &mut st.curv.exact[p.seg];
-            for (a, pa) in map.iter().enumerate() {
-                let Some(pa) = pa else { continue };
-                for (b, pb) in map.iter().enumerate() {
-                    let Some(pb) = pb else { continue };
-                    block[pa * d + pb] += sc.sum[a * dz + b];
+        }
+        for seg in 0..self.ocp.nodes - 1 {
+            if self.segment_peak_curvature(seg, pts, &st.dbar.grid, sc) {
+                let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
+                let dz = n + 2 * m + 1;
+                let (map, d) = (&self.exact.segments[seg], self.elements[seg].cols.len());
+                let block = &mut st.curv.exact[seg];
+                for (a, pa) in map.iter().enumerate() {
+                    let Some(pa) = pa else { continue };
+                    for (b, pb) in map.iter().enumerate() {
+                        let Some(pb) = pb else { continue };
+                        block[pa * d + pb] += sc.sum[a.min(b) * dz + a.max(b)];
+                    }
                 }
             }
         }
     }
 
-    /// Adds `weight·Gᵀ∇²g_o G` at one grid point (its block `[x, Φ, B⁻, B⁺]`) to `sc.sum`
-    /// (`dz × dz`); nothing when the evaluation fails.
-    fn add_point_curvature(
+    /// Segment `seg`'s `Σ_i G_iᵀ H_i G_i` over its grid points into `sc.sum` (upper
+    /// triangle), with `H_i = Σ_c ∇²(w_c·g_c)` at point `i` by the gathered weights; whether
+    /// any point had weight.
+    fn segment_peak_curvature(
         &self,
-        c: usize,
-        out: usize,
-        weight: f64,
+        seg: usize,
+        pts: usize,
         grid: &[f64],
         sc: &mut PeakCurvatureScratch,
-    ) {
+    ) -> bool {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let dz = n + 2 * m + 1;
+        let (dz, stride) = (n + 2 * m + 1, self.ocp.dynamics.grid_stride());
+        sc.sum.fill(0.0);
+        let mut touched = false;
+        for point in 0..pts {
+            let base = (seg * pts + point) * stride;
+            let at = &grid[base..base + stride];
+            sc.hx.fill(0.0);
+            let mut any = false;
+            for (c, meta) in self.intervals.iter().enumerate() {
+                if seg < meta.first || seg >= meta.last {
+                    continue;
+                }
+                let w0 = meta.val0 + ((seg - meta.first) * pts + point) * meta.nout;
+                any |= self.add_state_hessian(c, w0, at, sc);
+            }
+            if any {
+                sensitivities(at, n, m, &mut sc.g);
+                add_sandwich(sc, n, dz);
+                touched = true;
+            }
+        }
+        touched
+    }
+
+    /// Adds `∇²(w·g_c)` over the states at grid point `at` (its block `[x, Φ, B⁻, B⁺]`) to
+    /// `sc.hx`, with the weights `sc.point_weights[w0..]`; whether it did (not when the
+    /// weights are zero or the evaluation fails).
+    fn add_state_hessian(
+        &self,
+        c: usize,
+        w0: usize,
+        at: &[f64],
+        sc: &mut PeakCurvatureScratch,
+    ) -> bool {
+        let n = self.ocp.dynamics.n_x();
         let f = &self.ocp.interval_constraints[c].function;
-        sc.input[..n].copy_from_slice(&grid[..n]);
-        sc.input[n..].fill(0.0);
         let nout = f.n_outputs();
-        sc.weights[..nout].fill(0.0);
-        sc.weights[out] = weight;
+        let weights = &sc.point_weights[w0..w0 + nout];
+        if weights.iter().all(|&x| x == 0.0) {
+            return false;
+        }
+        sc.input[..n].copy_from_slice(&at[..n]);
+        sc.input[n..].fill(0.0);
         let nnz = f.hessian_pattern().nnz();
         let (vals, h) = (&mut sc.values[..nout], &mut sc.hessian[..nnz]);
-        if f.eval_hessian(&sc.input, &sc.weights[..nout], &mut sc.hws[c], vals, None, h).is_err()
+        if f.eval_hessian(&sc.input, weights, &mut sc.hws[c], vals, None, h).is_err()
             || h.iter().any(|x| !x.is_finite())
         {
-            return;
+            return false;
         }
-        sc.hx.fill(0.0);
         for ((a, b), &x) in f.hessian_pattern().lower().entries().zip(h.iter()) {
             if a < n && b < n {
                 sc.hx[a * n + b] += x;
@@ -125,18 +180,21 @@ impl Ptr {
                 }
             }
         }
-        sensitivities(grid, n, m, &mut sc.g);
-        // ∇²g·G, then Gᵀ(∇²g·G).
-        for r in 0..n {
-            for j in 0..dz {
-                sc.hg[r * dz + j] = (0..n).map(|q| sc.hx[r * n + q] * sc.g[q * dz + j]).sum();
-            }
+        true
+    }
+}
+
+/// `sc.sum += Gᵀ(hx·G)` (upper triangle), over the curved states only.
+fn add_sandwich(sc: &mut PeakCurvatureScratch, n: usize, dz: usize) {
+    let PeakCurvatureScratch { curved, hx, g, hg, sum, .. } = sc;
+    for &r in curved.iter() {
+        for j in 0..dz {
+            hg[r * dz + j] = curved.iter().map(|&q| hx[r * n + q] * g[q * dz + j]).sum();
         }
-        for a in 0..dz {
-            for b in 0..dz {
-                sc.sum[a * dz + b] +=
-                    (0..n).map(|r| sc.g[r * dz + a] * sc.hg[r * dz + b]).sum::<f64>();
-            }
+    }
+    for a in 0..dz {
+        for b in a..dz {
+            sum[a * dz + b] += curved.iter().map(|&r| g[r * dz + a] * hg[r * dz + b]).sum::<f64>();
         }
     }
 }

@@ -1,5 +1,6 @@
 //! The nearest matrix of a small symmetric block whose eigenvalues are at least a floor
-//! (eigenvalues clipped), by cyclic Jacobi rotations in preallocated scratch.
+//! (eigenvalues clipped), by cyclic Jacobi rotations in preallocated scratch — skipped when a
+//! Cholesky factorization shows the block is above the floor already.
 
 /// Replaces the symmetric `d×d` row-major `h` by `V·max(Λ, floor)·Vᵀ` (`h = VΛVᵀ`); with
 /// `floor = 0` its projection onto the positive-semidefinite cone in the Frobenius norm.
@@ -46,6 +47,41 @@ pub(super) fn project_psd(
         }
     }
     smallest
+}
+
+/// As [`project_psd`] without its return value, but first a Cholesky factorization of
+/// `h − floor·I` (into the scratch `v`): where it succeeds every eigenvalue of `h` lies above
+/// the floor, the projection is `h` itself, and the eigendecomposition (some hundred times
+/// the factorization's work at the subproblem's block sizes) is skipped.
+pub(super) fn clip_below(h: &mut [f64], d: usize, floor: f64, v: &mut [f64], lam: &mut [f64]) {
+    if !above_floor(&h[..d * d], d, floor, &mut v[..d * d]) {
+        project_psd(h, d, floor, v, lam);
+    }
+}
+
+/// Whether `h − floor·I` is positive definite: its Cholesky factor (lower, into `l`) exists
+/// with positive pivots.
+fn above_floor(h: &[f64], d: usize, floor: f64, l: &mut [f64]) -> bool {
+    for j in 0..d {
+        let mut pivot = h[j * d + j] - floor;
+        for k in 0..j {
+            pivot -= l[j * d + k] * l[j * d + k];
+        }
+        // A NaN pivot is not positive either.
+        if pivot.is_nan() || pivot <= 0.0 {
+            return false;
+        }
+        let root = pivot.sqrt();
+        l[j * d + j] = root;
+        for i in j + 1..d {
+            let mut x = h[i * d + j];
+            for k in 0..j {
+                x -= l[i * d + k] * l[j * d + k];
+            }
+            l[i * d + j] = x / root;
+        }
+    }
+    true
 }
 
 /// One Jacobi rotation zeroing `h[p][q]`, accumulated into the eigenvectors' columns `v`.
@@ -112,6 +148,38 @@ mod tests {
                 }
             }
             prop_assert!((smallest - eig.eigenvalues.min()).abs() <= 1e-10 * norm);
+        }
+
+        /// `clip_below` is `project_psd`'s reconstruction, whether the Cholesky shortcut
+        /// applies (every eigenvalue above the floor: the block unchanged) or not.
+        #[test]
+        fn clipping_below_a_floor_is_the_projection(
+            d in 1usize..16,
+            seed in proptest::collection::vec(-3.0f64..3.0, 256),
+            shift in -2.0f64..8.0,
+            floor in 0.0f64..1.0,
+        ) {
+            let mut h = vec![0.0; d * d];
+            for a in 0..d {
+                for b in a..d {
+                    let x = seed[a * 16 + b] / d as f64 + if a == b { shift } else { 0.0 };
+                    h[a * d + b] = x;
+                    h[b * d + a] = x;
+                }
+            }
+            let (mut v, mut lam) = (vec![0.0; d * d], vec![0.0; d]);
+            let mut want = h.clone();
+            project_psd(&mut want, d, floor, &mut v, &mut lam);
+            let mut got = h.clone();
+            clip_below(&mut got, d, floor, &mut v, &mut lam);
+            let norm = want.iter().map(|x| x * x).sum::<f64>().sqrt().max(1.0);
+            for (g, w) in got.iter().zip(&want) {
+                prop_assert!((g - w).abs() <= 1e-10 * norm, "{g} vs {w}");
+            }
+            let eig = SymmetricEigen::new(DMatrix::from_row_slice(d, d, &h));
+            if eig.eigenvalues.min() > floor + 1e-9 {
+                prop_assert!(got == h, "definite above the floor: unchanged");
+            }
         }
     }
 
