@@ -40,7 +40,10 @@ fn the_double_integrator_problem_file_reaches_the_analytic_time() {
         assert_eq!((code, r["status"].as_str()), (3, Some("violated_between_nodes")), "{stderr}");
         let v = &r["max_violation"];
         assert_eq!(v["constraint"], "speed limit (dense)");
-        assert!((v["value"].as_f64().unwrap() - (vmax - 0.7)).abs() < 1e-12, "{v} vs {vmax}");
+        // The checks sample every millisecond, the result every 10: they see at least the
+        // samples' excess, and at most what the speed gains in the half step between them.
+        let gap = v["value"].as_f64().unwrap() - (vmax - 0.7);
+        assert!((-1e-12..1e-3).contains(&gap), "{v} vs {vmax}");
         assert!(vmax > 0.7 + 1e-4 && vmax < 0.7 * 1.01, "{vmax}");
     }
     assert!(r["nodes"]["kinetic_energy"].as_array().unwrap().len() == 41);

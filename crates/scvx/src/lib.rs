@@ -12,8 +12,8 @@ mod sparse;
 
 // Modeling: a problem by name, its variables and constraints.
 pub use problem::{
-    Ball, BetweenNodes, Boundary, Control, CtcsOptions, MAX_DENSE_SAMPLES, MAX_NODES, Problem,
-    ProblemConstraint, State, Time,
+    Ball, BetweenNodes, Boundary, Control, CtcsOptions, DENSE_CHECK_DT, MAX_DENSE_SAMPLES,
+    MAX_NODES, Problem, ProblemConstraint, State, Time,
 };
 
 // Solving: compilation, the solver-level problem, the loop and its settings.

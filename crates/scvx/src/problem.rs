@@ -75,6 +75,13 @@ pub const MAX_NODES: usize = 2_000;
 /// `dense_dt`): the result files and the dense checks grow with it.
 pub const MAX_DENSE_SAMPLES: usize = 200_000;
 
+/// The dense checks sample the trajectory at most this far apart (s), however coarse the
+/// result's own sampling (`PtrSettings::dense_dt`): a velocity that rides its limit can
+/// exceed it for a few milliseconds between 10 ms samples (and an RK4 step of 10 ms misses
+/// the rigid-body arm's motion by as much). Longer final times sample at most
+/// [`MAX_DENSE_SAMPLES`] points.
+pub const DENSE_CHECK_DT: f64 = 1e-3;
+
 /// How a continuous-time constraint is integrated (CTCS).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CtcsOptions {
@@ -467,7 +474,15 @@ impl CompiledProblem {
         };
         let trajectory = self.layout.tables(&dense.time, &dense.x, &dense.u)?;
         let m = ocp.dynamics.n_u();
-        let dense_violations = self.dense_checks.violations(&dense, (n, m), &node_times)?;
+        let check_dt = DENSE_CHECK_DT.max(r.final_time / MAX_DENSE_SAMPLES as f64);
+        let fine = if check_dt < self.settings.dense_dt {
+            let fine = ocp.dynamics.propagate_dense(&r.x[..n], &r.u, &r.s, check_dt);
+            Some(fine.map_err(PtrError::from)?)
+        } else {
+            None
+        };
+        let checked = fine.as_ref().unwrap_or(&dense);
+        let dense_violations = self.dense_checks.violations(checked, (n, m), &node_times)?;
         let worst_dense = dense_violations.iter().map(|v| v.value).fold(0.0, f64::max);
         let status =
             if r.status == PtrStatus::Converged && worst_dense > self.settings.dense_tolerance {

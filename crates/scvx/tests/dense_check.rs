@@ -4,7 +4,9 @@
 //! on a minimum-time double integrator with a `.ctcs()` speed limit at the default settings,
 //! against the speed measured here from the dense trajectory.
 
-use armature_scvx::{Control, Problem, PtrSettings, PtrStatus, Solution, State, Time};
+use armature_scvx::{
+    Control, DENSE_CHECK_DT, Problem, PtrSettings, PtrStatus, Solution, State, Time,
+};
 
 const V_MAX: f64 = 0.7;
 
@@ -28,10 +30,17 @@ fn fastest(s: &Solution) -> f64 {
     s.trajectory["v"].iter().map(|r| r[0].abs()).fold(0.0, f64::max)
 }
 
+/// The defaults, with the result sampled as finely as the dense checks.
+fn fine() -> PtrSettings {
+    let mut s = PtrSettings::default();
+    s.dense_dt = DENSE_CHECK_DT;
+    s
+}
+
 #[test]
 fn the_speed_limit_holds_on_the_dense_trajectory_or_the_status_says_so() {
     for nodes in [6, 11, 41] {
-        let s = problem(nodes).compile(PtrSettings::default()).unwrap().solve().unwrap();
+        let s = problem(nodes).compile(fine()).unwrap().solve().unwrap();
         let vmax = fastest(&s);
         let dense = s.violations.iter().find(|v| v.constraint == "speed limit (dense)").unwrap();
         assert!((dense.value - (vmax - V_MAX).max(0.0)).abs() < 1e-12, "{dense:?} vs {vmax}");
@@ -51,17 +60,35 @@ fn the_speed_limit_holds_on_the_dense_trajectory_or_the_status_says_so() {
     }
 }
 
+/// The checks sample every `DENSE_CHECK_DT` whatever the result's own sampling: a coarse
+/// `dense_dt` gives the same violation and status as a fine one, and the excess the coarse
+/// samples show is at most what the checks report.
+#[test]
+fn the_dense_checks_do_not_depend_on_the_results_sampling() {
+    for nodes in [6, 11] {
+        let reference = problem(nodes).compile(fine()).unwrap().solve().unwrap();
+        let speed = |s: &Solution| {
+            s.violations.iter().find(|v| v.constraint == "speed limit (dense)").unwrap().clone()
+        };
+        for dense_dt in [0.01, 0.05] {
+            let mut settings = PtrSettings::default();
+            settings.dense_dt = dense_dt;
+            let s = problem(nodes).compile(settings).unwrap().solve().unwrap();
+            assert_eq!((s.status, speed(&s)), (reference.status, speed(&reference)));
+            assert!(s.trajectory["time"].len() < reference.trajectory["time"].len() / 5);
+            assert!(fastest(&s) - V_MAX <= speed(&s).value + 1e-12, "{nodes} nodes, {dense_dt}");
+        }
+    }
+}
+
 #[test]
 fn the_tolerance_decides_and_a_loose_one_lets_the_same_solve_converge() {
-    let strict = problem(6).compile(PtrSettings::default()).unwrap().solve().unwrap();
+    let strict = problem(6).compile(fine()).unwrap().solve().unwrap();
     let excess = fastest(&strict) - V_MAX;
     assert!(excess > 1e-4, "6 nodes keep the limit: the test needs an overshoot ({excess})");
     assert_eq!(strict.status, PtrStatus::ViolatedBetweenNodes);
-    let loose = {
-        let mut s = PtrSettings::default();
-        s.dense_tolerance = 2.0 * excess;
-        s
-    };
+    let mut loose = fine();
+    loose.dense_tolerance = 2.0 * excess;
     let s = problem(6).compile(loose).unwrap().solve().unwrap();
     assert_eq!(s.status, PtrStatus::Converged);
     assert_eq!((s.final_time, s.iterations), (strict.final_time, strict.iterations));

@@ -59,8 +59,9 @@ pub struct PtrSettings {
     pub discretization: DiscretizationSettings,
     /// Settings of the convex subproblems' solvers.
     pub subproblem: SubproblemSettings,
-    /// Time step of the dense propagation in post-processing (s), 1e-6 to 1 (the dense
-    /// checks between the nodes see nothing coarser). Default 0.01.
+    /// Time step of the dense trajectory in the result (s), 1e-6 to 1. Default 0.01. The
+    /// dense checks between the nodes sample at most [`crate::DENSE_CHECK_DT`] apart
+    /// whatever this is.
     pub dense_dt: f64,
     /// Largest violation of a continuous-time constraint on the dense trajectory that a
     /// converged solve may keep (in the constraint's units; default 1e-4): above it the
