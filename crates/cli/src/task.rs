@@ -2,6 +2,9 @@
 //! constraints, a table, obstacles, time, nodes, initialization and algorithm settings.
 //!
 //! ```toml
+//! table_height = 0.0             # the end effector stays above z = table_height (top-level
+//!                                # keys come before the first [table])
+//!
 //! [robot]
 //! name = "arm7"                  # built-in (arm7, ur5e), or a .toml screw table / .urdf path
 //! inertia = [0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]   # q̈ = τ / I
@@ -26,13 +29,26 @@
 //! orientation = [1.0, 0.0, 0.0, 0.0]   # [w, x, y, z] for the IK guess, or "free"
 //! tolerance = 0.01                     # the end effector passes within this distance (m)
 //!
+//! [[waypoints]]
+//! name = "pre_grasp"
+//! position = [0.35, -0.25, 0.2]
+//! orientation = [0.7071068, 0.0, 0.7071068, 0.0]
+//!
+//! [[waypoints]]
+//! name = "place"
+//! position = [0.35, 0.25, 0.05]
+//! orientation = [0.7071068, 0.0, 0.7071068, 0.0]
+//!
 //! [[orientation]]                # gripper orientation held between two waypoints
 //! quaternion_wxyz = [0.7071068, 0.0, 0.7071068, 0.0]
 //! tolerance_deg = 5.0
 //! from = "pre_grasp"
 //! to = "place"
 //!
-//! table_height = 0.0             # the end effector stays above z = table_height
+//! [initialization]               # the IK guess through the waypoints
+//! ik = "branches"                # least joint travel over IK branches (default), or
+//!                                # "sequential" / "parallel" node by node
+//! restarts = 8                   # random configurations solved from at each waypoint
 //!
 //! [settings]                     # armature_scvx::PtrSettings, every field optional
 //! max_iterations = 200

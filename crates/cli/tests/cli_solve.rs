@@ -379,3 +379,22 @@ fn ik_restarts_above_their_cap_are_located() {
     );
     assert!(!out.exists());
 }
+
+/// The task format documented at the top of `src/task.rs` is a task that solves: its TOML
+/// block, taken from the source, parses and converges with the initialization it documents.
+#[test]
+fn the_documented_task_format_solves() {
+    let source = include_str!("../src/task.rs");
+    let block: Vec<&str> = source
+        .lines()
+        .skip_while(|l| *l != "//! ```toml")
+        .skip(1)
+        .take_while(|l| *l != "//! ```")
+        .map(|l| l.strip_prefix("//! ").or_else(|| l.strip_prefix("//!")).unwrap_or(l))
+        .collect();
+    assert!(block.iter().any(|l| l.starts_with("[initialization]")), "{block:?}");
+    let path = temp_file("documented", "task.toml", &block.join("\n"));
+    let (code, out, err) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+    let r: Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {err}"));
+    assert_eq!((code, r["status"].as_str()), (0, Some("converged")), "{err}");
+}
