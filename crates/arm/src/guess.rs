@@ -4,7 +4,7 @@
 
 use armature_ik::{
     BranchSettings, IkSettings, IkTrajectory, IkWorkspace, JointSpline, Keyframe, Mode, Start,
-    Target, ik_branch_search, ik_interpolation, solve,
+    ik_branch_search, ik_interpolation, interpolate_targets, solve,
 };
 
 use crate::dynamics::Resolved;
@@ -86,13 +86,10 @@ fn first_waypoint_ik(
 ) -> Result<Vec<f64>, ArmError> {
     let bad =
         |m: String| ArmError::new(TaskItem::Initialization, format!("IK initialization: {m}"));
-    let position = nalgebra::Vector3::from(first.position);
-    let target = match first.quaternion_wxyz {
-        Some(q) => Target::pose(position, q).map_err(|e| bad(e.to_string()))?,
-        None => Target::position(position),
-    };
+    let targets =
+        interpolate_targets(std::slice::from_ref(first)).map_err(|e| bad(e.to_string()))?;
     let mut ws = IkWorkspace::new(&task.chain);
-    Ok(solve(&task.chain, &target, seed, settings, &mut ws).map_err(|e| bad(e.to_string()))?.q)
+    Ok(solve(&task.chain, &targets[0], seed, settings, &mut ws).map_err(|e| bad(e.to_string()))?.q)
 }
 
 /// The guess's duration: the spline's shortest under the velocity limits and the

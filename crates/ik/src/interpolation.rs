@@ -113,7 +113,8 @@ pub fn interpolate_targets(keyframes: &[Keyframe]) -> Result<Vec<Target>, IkErro
     Ok(out)
 }
 
-/// IK at every node of the interpolated keyframes, sequentially or in parallel.
+/// IK at every node of the interpolated keyframes, sequentially, in parallel or by the
+/// branch search.
 ///
 /// # Errors
 /// As [`interpolate_targets`] and [`solve`] (bad seed or settings).
@@ -124,6 +125,15 @@ pub fn ik_interpolation(
     settings: &IkSettings,
     mode: Mode,
 ) -> Result<IkTrajectory, IkError> {
+    if mode == Mode::Branches {
+        let weights: Vec<f64> =
+            chain.joints().iter().map(|j| j.limits.velocity.map_or(1.0, |v| 1.0 / v)).collect();
+        let (start, search) = (crate::Start::Seed(seed), crate::BranchSettings::default());
+        let mut free = |_: usize, _: &[f64]| 0.0;
+        return crate::ik_branch_search(
+            chain, keyframes, start, settings, &search, &weights, &mut free,
+        );
+    }
     let targets = interpolate_targets(keyframes)?;
     let nodes: Vec<IkResult> = match mode {
         Mode::Sequential => {
@@ -146,22 +156,7 @@ pub fn ik_interpolation(
             }
             out
         }
-        Mode::Branches => {
-            let weights: Vec<f64> =
-                chain.joints().iter().map(|j| j.limits.velocity.map_or(1.0, |v| 1.0 / v)).collect();
-            let search = crate::BranchSettings::default();
-            let start = crate::Start::Seed(seed);
-            return crate::ik_branch_search(
-                chain,
-                keyframes,
-                start,
-                settings,
-                &search,
-                &weights,
-                &mut |_, _| 0.0,
-            );
-        }
-        Mode::Parallel => targets
+        Mode::Parallel | Mode::Branches => targets
             .par_iter()
             .map_init(|| IkWorkspace::new(chain), |ws, t| solve(chain, t, seed, settings, ws))
             .collect::<Result<_, _>>()?,

@@ -25,6 +25,18 @@ fn jumping_pick_and_place() -> Vec<Keyframe> {
     ]
 }
 
+/// The branch search with unit weights and no cost per node.
+fn least_travel(
+    chain: &Chain,
+    keyframes: &[Keyframe],
+    start: Start<'_>,
+    settings: &IkSettings,
+    search: &BranchSettings,
+) -> IkTrajectory {
+    let weights = vec![1.0; chain.dof()];
+    ik_branch_search(chain, keyframes, start, settings, search, &weights, &mut |_, _| 0.0).unwrap()
+}
+
 /// Σ over steps of the largest joint change.
 fn travel(ik: &IkTrajectory) -> f64 {
     ik.q.windows(2)
@@ -61,16 +73,7 @@ fn a_pick_and_place_that_node_by_node_ik_jumps_gets_a_continuous_path() {
     // The premise: node by node, the path jumps (a joint moves more than 3 rad in one step).
     assert!(sequential.max_joint_step > 3.0, "{}", sequential.max_joint_step);
     let search = BranchSettings::default();
-    let ik = ik_branch_search(
-        &arm,
-        &keyframes,
-        Start::Seed(&seed),
-        &settings,
-        &search,
-        &[1.0; 7],
-        &mut |_, _| 0.0,
-    )
-    .unwrap();
+    let ik = least_travel(&arm, &keyframes, Start::Seed(&seed), &settings, &search);
     assert!(ik.all_converged());
     assert!(ik.max_joint_step < 1.0, "{}", ik.max_joint_step);
     assert!(travel(&ik) < 0.5 * travel(&sequential), "{} vs {}", travel(&ik), travel(&sequential));
@@ -89,16 +92,7 @@ fn a_fixed_start_is_kept_and_the_path_leaves_it_continuously() {
     let start = [0.0, -0.4, 0.0, 1.2, 0.0, 0.8, 0.0];
     let settings = IkSettings { restarts: 8, ..IkSettings::default() };
     let search = BranchSettings::default();
-    let ik = ik_branch_search(
-        &arm,
-        &keyframes,
-        Start::Fixed(&start),
-        &settings,
-        &search,
-        &[1.0; 7],
-        &mut |_, _| 0.0,
-    )
-    .unwrap();
+    let ik = least_travel(&arm, &keyframes, Start::Fixed(&start), &settings, &search);
     assert_eq!(ik.q[0], start.to_vec());
     assert!(ik.nodes[1..].iter().all(|r| r.converged));
     assert!(ik.max_joint_step < 1.5, "{}", ik.max_joint_step);
@@ -143,16 +137,7 @@ fn an_unreachable_node_between_keyframes_takes_the_interpolation_of_its_neighbou
     ];
     let search = BranchSettings { samples: 32, ..BranchSettings::default() };
     let seed = [0.0; 6];
-    let ik = ik_branch_search(
-        &ur5e,
-        &keyframes,
-        Start::Seed(&seed),
-        &IkSettings::default(),
-        &search,
-        &[1.0; 6],
-        &mut |_, _| 0.0,
-    )
-    .unwrap();
+    let ik = least_travel(&ur5e, &keyframes, Start::Seed(&seed), &IkSettings::default(), &search);
     assert!(ik.nodes[0].converged && ik.nodes[2].converged);
     assert!(!ik.nodes[1].converged, "the middle node is unreachable: {:?}", ik.nodes[1]);
     for i in 0..6 {
