@@ -64,11 +64,12 @@ pub(crate) fn add_task_constraints(problem: &mut Problem, t: &ArmTask) -> Result
     let nodes = problem.nodes;
     let fk = chain.symbolic_fk(&problem.states[0].expr()).map_err(|e| e.to_string())?;
     let p_ee = fk.ee_position();
-    // The limits' integral budget per segment. Alone it must keep the velocities within
-    // 1e-4 of their limits between the nodes: at 1e-6 a tenth of the suite's tasks ended
-    // 1-4e-4 over, at 1e-7 those converge (BENCHMARKS.md, 2026-12-04). With the velocity
-    // rows at the grid points too, 1e-5 left 1e-4 to 1e-3 rad/s between them on a third of
-    // the arm7 tasks (2026-12-05): the same budget.
+    // The limits' integral budget per segment: the angle limits, the table and, without
+    // velocity rows (the rigid-body model's default), the velocity limits. Alone it must keep
+    // the velocities within 1e-4 of their limits between the nodes: at 1e-6 a tenth of the
+    // suite's tasks ended 1-4e-4 over, at 1e-7 those converge (BENCHMARKS.md, 2026-12-04).
+    // Velocities with rows at every grid point stay out of it (`Problem::state_bounds_ctcs`):
+    // its kink where the motion rides the limit kept the solves 5 % slower (2026-12-05, night).
     let limits = CtcsOptions { penalty: Penalty::Relu, eps: 1e-7, group: 0 };
     let mut constraints: Vec<ProblemConstraint> = Vec::new();
     let mut between_nodes = Vec::new();

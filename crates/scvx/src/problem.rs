@@ -211,7 +211,11 @@ pub struct Problem {
     /// Named algebraic outputs evaluated along the solution (e.g. `ee_position`).
     pub outputs: Vec<(String, Expr)>,
     /// Also enforce the state bounds between nodes (a CTCS group) with these options.
-    /// Default `Some(ReLU, ε = 1e-6)`; `None` keeps them nodal only.
+    /// Default `Some(ReLU, ε = 1e-6)`; `None` keeps them nodal only. A state
+    /// [`with_interval_bounds`](State::with_interval_bounds) under
+    /// [`Sampling::GridPoints`](crate::Sampling::GridPoints) stays out of the integral: its rows
+    /// at every grid point hold it between the nodes, and the integral's kink where the motion
+    /// rides the bound would only slow the solve. The dense checks hold every bound either way.
     pub state_bounds_ctcs: Option<CtcsOptions>,
     /// Where the bounds of states [`with_interval_bounds`](State::with_interval_bounds) are
     /// held between the nodes: at each segment's peak (the default) or at every grid point

@@ -91,7 +91,9 @@ fn peak_rows_keep_the_path_out_of_the_disc_between_the_nodes() {
     // the rows never buy time.
     let unconstrained = 2.0 * 2f64.sqrt();
     assert!(peaks.final_time >= unconstrained - 1e-6, "T = {}", peaks.final_time);
-    assert!(peaks.final_time >= nodal.final_time - 1e-6);
+    // (Each solve stops where the model sees less than `eps_flat` of the cost left to gain.)
+    let eps_flat = PtrSettings::default().eps_flat;
+    assert!(peaks.final_time >= nodal.final_time * (1.0 - eps_flat));
     // The report names the constraint and finds it met.
     let v = peaks
         .violations
@@ -106,20 +108,23 @@ fn grid_point_rows_keep_the_path_out_of_the_disc_too() {
     let mut problem = problem(true);
     problem.between_nodes[0].sampling = armature_scvx::Sampling::GridPoints;
     let mut compiled = problem.compile(PtrSettings::default()).unwrap();
-    // One row per grid point of the 5 segments (11 points each, a node shared by two
-    // segments counted once) against one per segment; each with its buffer's `ν ≥ 0` row.
+    // One row per grid point of each of the 5 segments (11 points each: a node is held on
+    // both of its sides) against one per segment; each with its buffer's `ν ≥ 0` row.
     let rows = |c: &mut armature_scvx::CompiledProblem| c.ptr().dimensions().inequality_rows;
     let peak_rows = rows(&mut problem_with(true, None).compile(PtrSettings::default()).unwrap());
-    assert_eq!(rows(&mut compiled), peak_rows + 2 * (5 * 10 + 1 - 5));
+    assert_eq!(rows(&mut compiled), peak_rows + 2 * (5 * 11 - 5));
     let s = compiled.solve().unwrap();
     assert_eq!(s.status, armature_scvx::PtrStatus::Converged, "{:?}", s.max_violation);
     let d = depth(&s, CENTRE);
     assert!(d <= 1e-5, "deepest penetration {d}");
     // The optimum: with the acceleration bounded per axis, the path can bend around the disc
     // in y while x runs its bang-bang profile, so the unobstructed minimum time 2·√(2/1)
-    // (a lower bound for any path) is reached.
+    // (a lower bound for any path) is reached — to within `eps_flat`, where the solve stops
+    // trading defects for smaller gains.
     let bound = 2.0 * 2f64.sqrt();
-    assert!(s.final_time - bound < 1e-3 && s.final_time >= bound - 1e-6, "{}", s.final_time);
+    let eps_flat = PtrSettings::default().eps_flat;
+    let t = s.final_time;
+    assert!(t <= bound * (1.0 + eps_flat) && t >= bound - 1e-6, "{t}");
 }
 
 #[test]

@@ -68,3 +68,69 @@ fn an_interval_bound_on_a_missing_row_is_an_error() {
     let e = Ptr::new(ocp, PtrSettings::default()).unwrap_err();
     assert!(matches!(e, PtrError::IntervalBoundRow { row: 5, states: 2 }), "{e}");
 }
+
+/// A state whose bounds have a row at every grid point leaves the state bounds' CTCS
+/// integral (no integral state is added for it), and its bounds are still checked on the
+/// dense trajectory.
+#[test]
+fn bounds_held_at_every_grid_point_need_no_integral() {
+    use armature_scvx::{Control, Problem, Sampling, State, Time};
+    let problem = |sampling: Sampling| {
+        let p = State::new("p", 1).initial_value(&[0.0]).final_value(&[1.0]);
+        let v = State::new("v", 1)
+            .bounds(&[-VMAX], &[VMAX])
+            .initial_value(&[0.0])
+            .final_value(&[0.0])
+            .with_interval_bounds();
+        let a = Control::new("a", 1).bounds(&[-1.0], &[1.0]);
+        Problem {
+            dynamics: vec![v.expr(), a.expr()],
+            states: vec![p, v],
+            controls: vec![a],
+            time: Time::Free { min: 0.0, max: 10.0, guess: 3.0, minimize: true },
+            interval_bounds_sampling: sampling,
+            ..Problem::new(11)
+        }
+    };
+    let n_x = |s: Sampling| {
+        problem(s).compile(PtrSettings::default()).unwrap().ptr().ocp().dynamics.n_x()
+    };
+    assert_eq!(n_x(Sampling::Peak), 3, "p, v and the integral");
+    assert_eq!(n_x(Sampling::GridPoints), 2, "p and v only");
+    let s = problem(Sampling::GridPoints).compile(PtrSettings::default()).unwrap().solve().unwrap();
+    assert_eq!(s.status, PtrStatus::Converged);
+    let fastest = s.trajectory["v"].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
+    assert!(fastest <= VMAX + 1e-6, "largest velocity {fastest}");
+    let dense = s.violations.iter().find(|v| v.constraint == "bounds of v (dense)").unwrap();
+    assert!(dense.value <= 1e-6 && dense.time.is_some(), "{dense:?}");
+}
+
+/// Polishing ([`PtrSettings::eps_flat`]): after an accepted, nearly feasible step whose
+/// predicted decrease is below `eps_flat·max(1, |cost|)`, λ_tr quadruples (up to its cap);
+/// the solve ends within `eps_flat` (relative) of where it ends without polishing, having
+/// stopped trading defects for gains smaller than that.
+#[test]
+fn flat_steps_tighten_the_trust_region() {
+    let set = PtrSettings::default();
+    let (r, _) = solve(limited(6, true));
+    assert_eq!(r.status, PtrStatus::Converged);
+    let mut flat = 0;
+    for w in r.history.windows(2) {
+        let (h, next) = (&w[0], &w[1]);
+        let nearly_feasible =
+            h.max_defect < 1e3 * set.eps_defect && h.max_violation < 1e3 * set.eps_vb;
+        if h.accepted && nearly_feasible && h.predicted.abs() < set.eps_flat * h.cost.max(1.0) {
+            flat += 1;
+            assert_eq!(next.lam_tr, (4.0 * h.lam_tr).min(set.lam_tr_max), "after {h:?}");
+        }
+    }
+    assert!(flat >= 1, "no flat step in {} iterations", r.history.len());
+    let mut off = PtrSettings::default();
+    off.eps_flat = 0.0;
+    let nodes = 6;
+    let (x, u, s) = double_integrator::poor_guess(nodes);
+    let r0 = Ptr::new(limited(nodes, true), off).unwrap().solve(&x, &u, &s).unwrap();
+    assert_eq!(r0.status, PtrStatus::Converged);
+    let gap = (r.final_time - r0.final_time) / r0.final_time;
+    assert!(gap.abs() <= set.eps_flat, "{} vs {} without", r.final_time, r0.final_time);
+}

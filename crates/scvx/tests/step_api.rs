@@ -149,6 +149,14 @@ fn bad_input_is_an_error_not_a_panic() {
         (
             {
                 let mut s = PtrSettings::default();
+                s.eps_flat = -1e-3;
+                s
+            },
+            "eps_flat",
+        ),
+        (
+            {
+                let mut s = PtrSettings::default();
                 s.merit = Merit::Lagrangian { sigma: 1.5 };
                 s
             },

@@ -28,21 +28,17 @@ impl Problem {
                 last: c.last,
             });
         }
-        if self.state_bounds_ctcs.is_some() {
-            let mut row = 0;
-            for st in &self.states {
-                for i in 0..st.size() {
-                    let (min, max) = (st.min[i], st.max[i]);
-                    if min.is_finite() || max.is_finite() {
-                        let name = if st.size() == 1 {
-                            st.name.clone()
-                        } else {
-                            format!("{}[{i}]", st.name)
-                        };
-                        checks.bounds.push(BoundCheck { name, row, min, max });
-                    }
-                    row += 1;
+        let mut row = 0;
+        for st in &self.states {
+            let held = self.state_bounds_ctcs.is_some() || st.interval_bounds;
+            for i in 0..st.size() {
+                let (min, max) = (st.min[i], st.max[i]);
+                if held && (min.is_finite() || max.is_finite()) {
+                    let name =
+                        if st.size() == 1 { st.name.clone() } else { format!("{}[{i}]", st.name) };
+                    checks.bounds.push(BoundCheck { name, row, min, max });
                 }
+                row += 1;
             }
         }
         Ok(checks)

@@ -162,7 +162,12 @@ impl Problem {
             }
         };
         if let Some(o) = self.state_bounds_ctcs {
-            for st in &self.states {
+            // Bounds held at every grid point (with the cubic margin) need no integral: its
+            // kink where the motion rides the bound only slows the solve (BENCHMARKS.md).
+            let gridded = |st: &&State| {
+                st.interval_bounds && self.interval_bounds_sampling == crate::Sampling::GridPoints
+            };
+            for st in self.states.iter().filter(|st| !gridded(st)) {
                 let e = st.expr();
                 // Whole vectors where every component is bounded, else per component.
                 if st.max.iter().all(|v| v.is_finite()) {

@@ -32,7 +32,10 @@ pub struct State {
     pub guess: Option<Vec<f64>>,
     /// Also enforce the bounds between the nodes, at each segment's peak on the integration
     /// grid ([`Ocp::interval_bounds`]): for bounds the motion rides, whose CTCS integral alone
-    /// gives the subproblems no gradient where the trajectory touches them. Default false.
+    /// gives the subproblems no gradient where the trajectory touches them (at every grid
+    /// point instead under [`Sampling::GridPoints`](crate::Sampling::GridPoints), which also
+    /// takes the state out of [`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)).
+    /// Default false.
     pub interval_bounds: bool,
 }
 

@@ -33,6 +33,7 @@ impl Iteration {
             max_violation: f64::NAN,
             final_time,
             rho: f64::NAN,
+            predicted: f64::NAN,
             corrected: false,
             lam_tr,
             tr_gradient: f64::NAN,
@@ -187,6 +188,7 @@ impl Ptr {
             max_violation,
             final_time: tfc,
             rho,
+            predicted,
             corrected,
             ..record
         };
@@ -323,11 +325,17 @@ impl Ptr {
         // stationarity — the subproblem's optimality gives ‖∇L‖ ≈ 2λ_tr‖Δz‖_S, which a heavy
         // λ_tr keeps large while the step is short (see `quasi_newton`).
         let stationary = record.j_tr < set.eps_tr;
+        // Nearly feasible with little left to gain by the model: polish with short steps.
+        let flat = record.predicted.abs() < set.eps_flat * record.cost.abs().max(1.0)
+            && record.max_defect < 1e3 * set.eps_defect
+            && record.max_violation < 1e3 * set.eps_vb;
         if stationary && record.max_defect < set.eps_defect && record.max_violation < set.eps_vb {
             return Some(PtrStatus::Converged);
         }
         if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
-            if backtracked || record.rho < eta[1] {
+            if flat {
+                st.lam_tr = (st.lam_tr * 4.0).min(set.lam_tr_max);
+            } else if backtracked || record.rho < eta[1] {
                 st.lam_tr = (st.lam_tr * 2.0).min(set.lam_tr_max);
             } else if record.rho > eta[2] {
                 st.lam_tr = (st.lam_tr * 0.5).max(set.lam_tr_min);

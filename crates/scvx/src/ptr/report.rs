@@ -124,6 +124,9 @@ pub struct Iteration {
     pub final_time: f64,
     /// Actual / predicted merit reduction.
     pub rho: f64,
+    /// The merit reduction the subproblem's model predicted for the step (before any
+    /// second-order correction or backtracking).
+    pub predicted: f64,
     /// Whether the candidate is the step's second-order correction
     /// ([`PtrSettings::second_order_correction`]).
     pub corrected: bool,

@@ -51,6 +51,15 @@ pub struct PtrSettings {
     pub eps_tr: f64,
     /// Convergence: largest nonlinear defect. Default 1e-6.
     pub eps_defect: f64,
+    /// Polishing: with [`TrustRegionUpdate::Adaptive`], an accepted step whose predicted
+    /// merit decrease is below `eps_flat·max(1, |cost|)`, at a candidate within 1000× the
+    /// defect and violation tolerances, quadruples λ_tr. Where the model
+    /// sees that little left to gain, long steps only trade second-order defects for ever
+    /// smaller gains (a redundant arm's self-motion is such a flat valley: without this rule
+    /// the seed arm creeps 1e-4 s per iteration to the iteration cap); short steps repair the
+    /// defects instead, and the solve converges by `eps_tr`, `eps_defect` and `eps_vb`. 0
+    /// turns it off. Default 3e-3 (chosen on the benchmark suite, BENCHMARKS.md).
+    pub eps_flat: f64,
     /// How the trust-region weight evolves. Default `Adaptive { eta: [0, 0.1, 0.5] }`.
     pub trust_region: TrustRegionUpdate,
     /// Iteration cap. Default 200 (OpenSCvx's `k_max`).
@@ -294,6 +303,9 @@ impl PtrSettings {
         if self.lam_vc > self.lam_vc_max || self.lam_vb > self.lam_vc_max {
             return bad("lam_vc_max", "must be at least lam_vc and lam_vb");
         }
+        if !(self.eps_flat.is_finite() && self.eps_flat >= 0.0) {
+            return bad("eps_flat", "must be a finite number ≥ 0");
+        }
         if !(1e-6..=1.0).contains(&self.dense_dt) {
             return bad("dense_dt", "must be 1e-6 to 1 s");
         }
@@ -348,6 +360,7 @@ impl Default for PtrSettings {
             eps_vb: 1e-6,
             eps_tr: 1e-5,
             eps_defect: 1e-6,
+            eps_flat: 3e-3,
             trust_region: TrustRegionUpdate::Adaptive { eta: default_eta() },
             max_iterations: 200,
             discretization: DiscretizationSettings::default(),

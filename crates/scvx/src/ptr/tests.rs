@@ -144,8 +144,8 @@ fn row_coefficients_against_differences(sampling: crate::Sampling) -> (usize, us
     ptr.fill_peaks(&d, &mut ev, super::GridAt::Other);
     let h = 1e-6;
     let (mut checked, mut checked_g, mut kinks) = (0, 0, 0);
-    // ±v and g's 2 outputs on 3 segments: at each peak, or at the 3·10 + 1 grid points.
-    let places = if sampling == crate::Sampling::Peak { 3 } else { 31 };
+    // ±v and g's 2 outputs on 3 segments: at each peak, or at each segment's 11 grid points.
+    let places = if sampling == crate::Sampling::Peak { 3 } else { 33 };
     assert_eq!(ptr.peaks.len(), places * (2 + 2));
     for pk in &ptr.peaks {
         let (_, _, w) = peak(&z, pk);
@@ -593,4 +593,33 @@ fn peak_curvature_is_the_rows_second_derivative_in_the_states() {
     }
     assert!(scale > 0.1, "a curvature worth checking: {scale}");
     assert!(worst <= 1e-5 * scale, "H·s off by {worst:e} (scale {scale:e})");
+}
+
+/// With a row at every grid point, the half step just before an interior node is its
+/// segment's own (the node's row on the next segment reaches only into that one): a velocity
+/// whose only excess is the vertex of its parabola there is seen.
+#[test]
+fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
+    use super::{GridAt, Ptr, PtrSettings};
+    use crate::DiscretizationSettings;
+    let mut ocp = double_integrator(3, 1.0, [None, None], |_, v| v - 10.0, vec![1]);
+    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
+    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    // Segment 0 lasts h = s·Δτ = 1 s with a from 1 to −0.02: v peaks at t* = 1/1.02, in the
+    // last half step (0.95, 1), at v0 + t* − 1.02·t*²/2; the grid points, the node included,
+    // stay below the limit.
+    let (a0, a1, h) = (1.0, -0.02, 1.0);
+    let t_star = a0 * h / (a0 - a1);
+    let v = |v0: f64, t: f64| v0 + a0 * t + (a1 - a0) * t * t / (2.0 * h);
+    let v0 = 1.0 + 1e-4 - v(0.0, t_star);
+    assert!(t_star > 0.95 && v(v0, 1.0) < 1.0 && v(v0, 0.9) < 1.0);
+    let z = [0.0, v0, 0.0, 0.0, 0.0, 0.0, a0, a1, 0.0, 2.0, 2.0, 2.0];
+    let mut ws = ptr.ocp.dynamics.workspace();
+    let mut d = ptr.output();
+    let settings = DiscretizationSettings::default();
+    ptr.ocp.dynamics.discretize(&z[..6], &z[6..9], &z[9..], &settings, &mut ws, &mut d).unwrap();
+    let mut ev = ptr.iterate().ev;
+    let weights = vec![1.0; ptr.buffers.len() + ptr.peaks.len()];
+    let (_, worst) = ptr.eval_peaks(&d, &mut ev, &weights, GridAt::Other);
+    assert!((worst - 1e-4).abs() < 1e-9, "largest excess {worst}, the velocity's is 1e-4");
 }

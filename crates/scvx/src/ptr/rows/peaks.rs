@@ -101,7 +101,7 @@ pub(in crate::ptr) fn push_state_peaks(
     rb: &mut RowBuilder,
 ) {
     for k in 0..v.nn - 1 {
-        for at in sample_points(ocp.interval_bounds_sampling, k, v.nn - 1, pts) {
+        for at in sample_points(ocp.interval_bounds_sampling, pts) {
             for &r in rows {
                 for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
                     if !bound.is_finite() {
@@ -120,30 +120,26 @@ pub(in crate::ptr) fn push_state_peaks(
     placed.stride = vec![0; placed.src.len()];
 }
 
-/// The rows' places on segment `k` (of segments `..end`) under `sampling`: the peak (`None`),
-/// or each grid point once — a segment's last point only on the last segment, the next
-/// segment's first point being the same node.
-fn sample_points(sampling: Sampling, k: usize, end: usize, pts: usize) -> Vec<Option<usize>> {
+/// The rows' places on segment `k` under `sampling`: the peak (`None`), or every grid point
+/// of the segment. A node is both a segment's last point and the next one's first: each row
+/// bounds the half step on its own segment's side (`local_peak`), so both are needed.
+fn sample_points(sampling: Sampling, pts: usize) -> Vec<Option<usize>> {
     match sampling {
         Sampling::Peak => vec![None],
-        Sampling::GridPoints => {
-            let last = if k + 1 == end { pts } else { pts - 1 };
-            (0..last).map(Some).collect()
-        }
+        Sampling::GridPoints => (0..pts).map(Some).collect(),
     }
 }
 
 /// The number of places of a row on the `nn − 1` segments under `sampling`.
 pub(in crate::ptr) fn state_row_places(sampling: Sampling, nn: usize, pts: usize) -> usize {
-    (0..nn - 1).map(|k| sample_points(sampling, k, nn - 1, pts).len()).sum()
+    (nn - 1) * sample_points(sampling, pts).len()
 }
 
 /// The number of rows (and buffers) of interval constraint `c` on `nn` nodes with `pts` grid
 /// points per segment.
 pub(in crate::ptr) fn function_rows(c: &IntervalConstraint, nn: usize, pts: usize) -> usize {
     let segs = segments(c, nn);
-    let places: usize =
-        segs.clone().map(|k| sample_points(c.sampling, k, segs.end, pts).len()).sum();
+    let places: usize = segs.len() * sample_points(c.sampling, pts).len();
     places * c.function.n_outputs()
 }
 
@@ -169,7 +165,7 @@ pub(in crate::ptr) fn push_function_peaks(
         }
         let segs = segments(c, v.nn);
         for k in segs.clone() {
-            for at in sample_points(c.sampling, k, segs.end, pts) {
+            for at in sample_points(c.sampling, pts) {
                 for (out, dep) in deps.iter().enumerate() {
                     let start = placed.src.len();
                     let reads = |col: usize| dep.iter().any(|&(r, _)| tp.contains(r, col));
