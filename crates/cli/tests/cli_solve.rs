@@ -124,6 +124,28 @@ fn collision_example_converges_and_keeps_clear_of_the_ball() {
     assert!(COLLISION_TASK.contains("[collision]") && !TASK.contains("[collision]"));
 }
 
+/// The rigid-body demo meets every constraint on its dense trajectory by default: its
+/// velocities between the nodes are held by the limits' integral alone, whose budget must
+/// keep them within `dense_tolerance` (with 1e-7 the run ended 1.001e-4 rad/s over it).
+#[test]
+fn the_rigid_body_demo_converges_within_every_limit() {
+    let dir = scratch("rigid");
+    let out = dir.path().join("result.json");
+    let (code, _, stderr) =
+        armature(&["demo", "ur5e-rigid-body", "-q", "-o", out.to_str().unwrap()]);
+    let r = read_json(&out);
+    assert_eq!(r["status"].as_str(), Some("converged"), "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
+    let limit = std::f64::consts::PI; // the UR5e's own, 180°/s per joint
+    let fastest = r["trajectory"]["velocity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap().abs()))
+        .fold(0.0, f64::max);
+    assert!(fastest <= limit + 1e-4, "fastest joint {fastest} rad/s");
+}
+
 /// The velocity rows at every integration grid point (`velocity_limit_peaks`, on by default
 /// for the decoupled model) give the subproblems a gradient where the motion rides its
 /// velocity limit between the nodes: the demo task converges to a markedly lower final time
