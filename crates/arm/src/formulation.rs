@@ -71,7 +71,8 @@ pub(crate) fn add_task_constraints(problem: &mut Problem, t: &ArmTask) -> Result
     // 1e-7 left the UR5e rigid-body demo 1.001e-4 rad/s over, 3e-8 holds it at 9e-5 or less
     // and leaves every suite task's T as it was (2026-12-05, night).
     // Velocities with rows at every grid point stay out of it (`Problem::state_bounds_ctcs`):
-    // its kink where the motion rides the limit kept the trajectories 5 % slower (2026-12-05, night).
+    // its kink where the motion rides the limit kept the trajectories 5 % slower
+    // (2026-12-05, night).
     let limits = CtcsOptions { penalty: Penalty::Relu, eps: 3e-8, group: 0 };
     let mut constraints: Vec<ProblemConstraint> = Vec::new();
     let mut between_nodes = Vec::new();

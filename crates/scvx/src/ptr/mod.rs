@@ -48,7 +48,7 @@
 //! values are computed at every grid point, the Jacobians only at the stencils' points. Each
 //! row couples a segment's states, controls and dilation, so the KKT factor grows. With
 //! [`crate::Sampling::GridPoints`] every grid point has its row, bounding `g_o` over its half-step
-//! cell: its parabola at its largest there plus `max|Δ³g|/15`, a bound on what a parabola
+//! cell (a node has one on each of its two segments, each reaching into its own): its parabola at its largest there plus `max|Δ³g|/15`, a bound on what a parabola
 //! misses of a cubic (the third differences' weights join the stencil, so the row's gradient
 //! is exact away from the margin's kinks). Without the margin the 0.1° orientation ranges
 //! ended 1e-4–2.5e-4 rad out between grid points on 6 of the suite's tasks.
@@ -70,7 +70,9 @@
 //! control (or a buffer) gets a doubled price — the ℓ1 penalty is exact only above the
 //! multiplier. Converged when an accepted step has `‖Δz‖²_S < ε_tr`, the largest nonlinear
 //! defect is below `ε_defect` and the largest nodal violation below `ε_vb` (the named layer
-//! then checks the dense trajectory).
+//! then checks the dense trajectory). An accepted, nearly feasible step whose predicted
+//! decrease is below [`PtrSettings::eps_flat`] of the cost quadruples λ_tr: the steps that
+//! follow repair defects rather than creep along a flat valley for smaller gains.
 //!
 //! A short step is not a stationary point: with a heavy λ_tr the step is short while the
 //! Lagrangian's gradient (≈ 2λ_tr·S⁻²Δz at the subproblem's optimum) is not small.

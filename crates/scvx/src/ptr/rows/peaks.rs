@@ -120,7 +120,7 @@ pub(in crate::ptr) fn push_state_peaks(
     placed.stride = vec![0; placed.src.len()];
 }
 
-/// The rows' places on segment `k` under `sampling`: the peak (`None`), or every grid point
+/// The rows' places on each segment under `sampling`: the peak (`None`), or every grid point
 /// of the segment. A node is both a segment's last point and the next one's first: each row
 /// bounds the half step on its own segment's side (`local_peak`), so both are needed.
 fn sample_points(sampling: Sampling, pts: usize) -> Vec<Option<usize>> {
