@@ -11,6 +11,16 @@ use serde_json::Value;
 const TASK: &str = include_str!("../../../examples/pick-and-place.toml");
 const COLLISION_TASK: &str = include_str!("../../../examples/pick-and-place-collision.toml");
 
+/// The largest joint speed on a result's dense trajectory.
+fn fastest_joint(result: &Value) -> f64 {
+    result["trajectory"]["velocity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap().abs()))
+        .fold(0.0, f64::max)
+}
+
 fn read_json(path: &std::path::Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -137,12 +147,7 @@ fn the_rigid_body_demo_converges_within_every_limit() {
     assert_eq!(r["status"].as_str(), Some("converged"), "{stderr}");
     assert_eq!(code, 0, "{stderr}");
     let limit = std::f64::consts::PI; // the UR5e's own, 180°/s per joint
-    let fastest = r["trajectory"]["velocity"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .flat_map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap().abs()))
-        .fold(0.0, f64::max);
+    let fastest = fastest_joint(&r);
     assert!(fastest <= limit + 1e-4, "fastest joint {fastest} rad/s");
 }
 
@@ -168,12 +173,7 @@ fn velocity_limit_peaks_reach_a_lower_final_time_within_the_limits() {
     let (plain, r) = (solve("peaks-off", &off), solve("peaks-default", TASK));
     let (t0, t1) = (plain["final_time"].as_f64().unwrap(), r["final_time"].as_f64().unwrap());
     assert!(t1 < t0 - 0.05, "T = {t1} with peaks, {t0} without");
-    let fastest = r["trajectory"]["velocity"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .flat_map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap().abs()))
-        .fold(0.0, f64::max);
+    let fastest = fastest_joint(&r);
     assert!(fastest <= 3.0 + 1e-4, "dense velocity {fastest}");
 }
 
