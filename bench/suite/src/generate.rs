@@ -37,6 +37,9 @@ pub struct SuiteTask {
     pub balls: Balls,
     /// Built to be infeasible, and why.
     pub infeasible: Option<&'static str>,
+    /// Mesh refinement: solved on `task`'s grid, then on the grid `refine` times finer
+    /// (`ArmTask::refined`) from that solution (1: once, on `task`'s grid).
+    pub refine: usize,
 }
 
 fn lerp(rng: &mut Pcg64Mcg, lo: f64, hi: f64) -> f64 {
@@ -211,6 +214,7 @@ pub fn suite() -> Vec<SuiteTask> {
         robot,
         balls,
         infeasible: None,
+        refine: 1,
     };
     out.push(entry("seed", "seed".into(), fixtures::pick_and_place(), Robot::Arm7, vec![]));
     out.push(entry(
@@ -273,6 +277,7 @@ fn infeasible() -> Vec<SuiteTask> {
         robot,
         balls,
         infeasible: Some(why),
+        refine: 1,
     };
     vec![
         entry(

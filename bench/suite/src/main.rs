@@ -1,11 +1,14 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
-//! [--reference FILE] [--subdivide K] [--settings JSON] [--velocity-peaks true|false]`: solves every task of the suite with
+//! [--reference FILE] [--subdivide K] [--refine K] [--settings JSON]
+//! [--velocity-peaks true|false]`: solves every task of the suite with
 //! default settings, verifies each independently and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
 //! writes the tasks (with armature's guesses and solutions) for `bench/reference/t_ref.py`.
 //!
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
-//! segment into K (K·2 intervals between waypoints instead of 2), and `--settings JSON`
+//! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
+//! task and then again on a grid K times finer from that solution (`ArmTask::refined`,
+//! `armature_arm::set_refined_guess`; iterations and time count both stages), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
 //! points or not (each task's dynamics model chooses by default).
@@ -20,7 +23,7 @@ fn main() {
     let value = |flag: &str| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1));
     let filter = value("--filter").cloned();
     let study = study::Study::from_args(
-        value("--subdivide"),
+        (value("--subdivide"), value("--refine")),
         value("--settings"),
         value("--velocity-peaks"),
     )

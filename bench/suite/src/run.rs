@@ -3,7 +3,8 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use armature_scvx::PtrStatus;
+use armature_arm::{ArmTask, join_stages, set_refined_guess};
+use armature_scvx::{PtrStatus, Solution};
 use nalgebra::Matrix3;
 use serde::Serialize;
 
@@ -113,9 +114,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         solution: None,
     };
     let start = Instant::now();
-    let solution = match t.task.plan().map_err(|e| e.to_string()).and_then(|plan| {
-        plan.compile().map_err(|e| e.to_string())?.solve().map_err(|e| e.to_string())
-    }) {
+    let (solution, fine) = match solve(t) {
         Ok(s) => s,
         Err(e) => {
             out.status = format!("error: {e}");
@@ -124,6 +123,15 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         }
     };
     out.solve_ms = start.elapsed().as_secs_f64() * 1e3;
+    // A refined solve is verified on its own grid (waypoints and ranges at its nodes).
+    let refined;
+    let t = match fine {
+        Some(task) => {
+            refined = SuiteTask { task, ..t.clone() };
+            &refined
+        }
+        None => t,
+    };
     out.status = format!("{:?}", solution.status);
     out.iterations = solution.iterations;
     out.final_time = solution.final_time;
@@ -147,6 +155,23 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         torques: nodes["torque"].clone(),
     });
     out
+}
+
+/// Plans and solves a task; with `refine > 1`, then its refined task from that solution,
+/// returned with the sum of both stages' iterations (a first stage that does not converge
+/// is the outcome).
+fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>), String> {
+    let text = |e: &dyn std::fmt::Display| e.to_string();
+    let mut coarse = t.task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
+    let coarse = coarse.solve().map_err(|e| text(&e))?;
+    if t.refine <= 1 || coarse.status != PtrStatus::Converged {
+        return Ok((coarse, None));
+    }
+    let task = t.task.refined(t.refine);
+    let mut fine = task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
+    set_refined_guess(&mut fine, &coarse, t.refine).map_err(|e| text(&e))?;
+    let solution = fine.solve().map_err(|e| text(&e))?;
+    Ok((join_stages(&coarse, solution), Some(task)))
 }
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {

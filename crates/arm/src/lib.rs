@@ -9,10 +9,12 @@ pub mod fixtures;
 mod formulation;
 mod guess;
 mod plan;
+mod refine;
 mod task;
 
 pub use error::{ArmError, TaskItem};
 pub use plan::{ArmPlan, waypoint_parameter};
+pub use refine::{join_stages, set_refined_guess};
 pub use task::{
     ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RIGID_BODY_SUBSTEPS,
     TimeWindow, Waypoint,

@@ -202,4 +202,25 @@ impl ArmTask {
         }
         t
     }
+
+    /// The second stage of a mesh refinement: the task [`subdivided`](Self::subdivided) by
+    /// `factor`, with its velocities bounded at every integration grid point
+    /// ([`velocity_limit_peaks`](Self::velocity_limit_peaks)) whatever the model's default.
+    /// Solved from the first stage's solution ([`set_refined_guess`](crate::set_refined_guess)),
+    /// its faster motion rides the velocity limits along whole segments, where the limits'
+    /// continuous-time integral alone lets the rigid-body model's velocities exceed them by
+    /// 1e-4 to 8e-4 rad/s between the nodes (11 of the suite's 20 UR5e rigid-body tasks,
+    /// BENCHMARKS.md).
+    ///
+    /// # Example
+    /// ```
+    /// let ur5e = armature_arm::fixtures::ur5e_rigid_body();
+    /// assert!(!ur5e.velocity_limit_peaks);
+    /// let fine = ur5e.refined(2);
+    /// assert!(fine.velocity_limit_peaks);
+    /// assert_eq!(fine.nodes, ur5e.subdivided(2).nodes);
+    /// ```
+    pub fn refined(&self, factor: usize) -> ArmTask {
+        ArmTask { velocity_limit_peaks: true, ..self.subdivided(factor) }
+    }
 }

@@ -14,3 +14,11 @@ fn a_task_written_in_rust_plans_solves_and_reads_back_by_name() {
 fn an_infeasible_task_names_its_fault() {
     infeasible::main();
 }
+
+#[path = "../examples/mesh_refinement.rs"]
+mod mesh_refinement;
+
+#[test]
+fn a_refined_grid_reaches_a_faster_motion() {
+    mesh_refinement::main();
+}

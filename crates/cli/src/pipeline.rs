@@ -112,7 +112,14 @@ pub fn arm_task(
 /// # Errors
 /// The first problem found, as `file:line:col: reason`.
 pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Plan, LocatedError> {
-    let arm_task = arm_task(task, src, path)?;
+    plan_arm(task, src, arm_task(task, src, path)?)
+}
+
+/// Plans an [`ArmTask`] built from `task` (or refined from one), errors located in `task`.
+///
+/// # Errors
+/// The first problem found, as `file:line:col: reason`.
+pub fn plan_arm(task: &TaskFile, src: Source<'_>, arm_task: ArmTask) -> Result<Plan, LocatedError> {
     let arm = arm_task.plan().map_err(|e| locate(task, src, &e))?;
     let nodes = arm_task.nodes;
     let table_height = arm_task.table_height;
@@ -297,6 +304,25 @@ fn time_window(task: &TaskFile, src: Source<'_>) -> Result<(f64, f64), LocatedEr
         return Err(src.error_at(at, format!("min {t_min} must be in [0, max)")));
     }
     Ok((t_min, t_max))
+}
+
+/// `[nodes] refine`: the factor of the mesh refinement (1 when not given), checked against
+/// the node count.
+///
+/// # Errors
+/// A factor below 1 or above 16, or a refined grid beyond the node limit.
+pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedError> {
+    let Some(r) = &task.nodes.refine else { return Ok(1) };
+    let (nodes, _) = node_count(task, src)?;
+    let k = *r.get_ref();
+    let max = armature_scvx::MAX_NODES;
+    if !(1..=16).contains(&k) || (nodes - 1) * k + 1 > max {
+        return Err(src.error(
+            r,
+            format!("refine {k}: need 1 to 16, and at most {max} nodes in all once refined"),
+        ));
+    }
+    Ok(k)
 }
 
 /// `[nodes]`: the node count, and the nodes per segment when given that way.

@@ -22,6 +22,8 @@
 //!
 //! [nodes]
 //! per_segment = 2                # waypoint k sits at node k·per_segment (or give `count`)
+//! # refine = 2                   # then again from that solution, every segment split in 2
+//!                                # (velocities then bounded at every grid point)
 //!
 //! [[waypoints]]
 //! name = "home"
@@ -237,6 +239,12 @@ pub struct NodesSpec {
     #[serde(default)]
     #[schemars(with = "Option<usize>")]
     pub count: Option<Spanned<usize>>,
+    /// Mesh refinement: after converging on these nodes, solve again from that solution on
+    /// a grid this many times finer (`ArmTask::refined`: every segment split, velocities
+    /// bounded at every integration grid point; default 1, no second stage).
+    #[serde(default)]
+    #[schemars(with = "Option<usize>")]
+    pub refine: Option<Spanned<usize>>,
 }
 
 /// A waypoint.

@@ -10,7 +10,7 @@ use clap::Args;
 
 use crate::output::ResultFile;
 use crate::output_set::OutputSet;
-use crate::pipeline::plan;
+use crate::pipeline::{arm_task, plan_arm, refinement};
 use crate::streaming::{Streamer, wire_status};
 use crate::task::{Source, parse};
 use crate::view::{Iterate, Scene, ViewData};
@@ -75,6 +75,9 @@ pub struct Loaded {
     pub keypoints: Vec<String>,
     /// The files read: the task or problem file and a robot file (outputs must not be them).
     pub inputs: Vec<PathBuf>,
+    /// With `[nodes] refine = K > 1`: K, and the task on the grid K times finer, planned and
+    /// compiled, solved from the first stage's solution.
+    pub refined: Option<(usize, crate::pipeline::Plan, armature_scvx::CompiledProblem)>,
 }
 
 /// Parses, checks and compiles a task file or a problem file (recognised by its
@@ -91,15 +94,29 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             .compile(settings)
             .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
-        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new(), inputs });
+        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new(), inputs, refined: None });
     }
     let task = parse(src).map_err(CliError::bad_input)?;
-    let plan = plan(&task, src, path).map_err(CliError::bad_input)?;
-    let compiled = plan.compile().map_err(|e| CliError::bad_input(locate(&task, src, &e)))?;
+    let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
+    let factor = refinement(&task, src).map_err(CliError::bad_input)?;
+    let fine = (factor > 1).then(|| arm.refined(factor));
+    let plan = plan_arm(&task, src, arm).map_err(CliError::bad_input)?;
+    let compile = |plan: &crate::pipeline::Plan| {
+        plan.compile().map_err(|e| CliError::bad_input(locate(&task, src, &e)))
+    };
+    let compiled = compile(&plan)?;
+    let refined = match fine {
+        Some(fine) => {
+            let plan = plan_arm(&task, src, fine).map_err(CliError::bad_input)?;
+            let compiled = compile(&plan)?;
+            Some((factor, plan, compiled))
+        }
+        None => None,
+    };
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
     let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
-    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs })
+    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined })
 }
 
 /// A problem-layer error of a planned task (the task's checks let few through): at the
@@ -363,7 +380,7 @@ pub fn run_task(
     check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
-    let (solution, iterates) = solve_observed(&mut loaded, &mut streamer, (src, o.quiet))?;
+    let (solution, iterates) = solve_stages(&mut loaded, &mut streamer, (src, o.quiet))?;
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
     }
@@ -381,6 +398,43 @@ pub fn run_task(
             .map_err(|e| CliError { message: format!("--stream: {e}"), code: exit::IO })?;
     }
     outcome(&solution)
+}
+
+/// Solves the task, and with a refinement then the refined task from that solution (when
+/// the first stage converged), which takes the place of the first in `loaded`.
+fn solve_stages(
+    loaded: &mut Loaded,
+    streamer: &mut Option<Streamer>,
+    (src, quiet): (Source<'_>, bool),
+) -> Result<(Solution, Vec<Iterate>), CliError> {
+    let (coarse, mut iterates) = solve_observed(loaded, streamer, (src, quiet))?;
+    let Some((factor, plan, mut compiled)) = loaded.refined.take() else {
+        return Ok((coarse, iterates));
+    };
+    if coarse.status != PtrStatus::Converged {
+        say(quiet, "not refined: the first stage did not converge");
+        return Ok((coarse, iterates));
+    }
+    armature_arm::set_refined_guess(&mut compiled, &coarse, factor)
+        .map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
+    say(
+        quiet,
+        &format!(
+            "refining: T = {:.4} s after {} iterations on {} nodes; again on {} nodes",
+            coarse.final_time,
+            coarse.iterations,
+            loaded.compiled.ptr().ocp().nodes,
+            plan.nodes
+        ),
+    );
+    (loaded.plan, loaded.compiled) = (Some(plan), compiled);
+    let (fine, more) = solve_observed(loaded, streamer, (src, quiet))?;
+    // The guess's iterate of the second stage is the first stage's result: not drawn again.
+    iterates.extend(more.into_iter().skip(1).map(|mut it| {
+        it.iteration += coarse.iterations;
+        it
+    }));
+    Ok((armature_arm::join_stages(&coarse, fine), iterates))
 }
 
 /// The initial guess as an iterate: the end effector at the IK configurations of the nodes.

@@ -1,0 +1,33 @@
+//! Mesh refinement: the seed solved on its 11 nodes, then again from that solution on 21
+//! nodes ([`ArmTask::refined`](armature_arm::ArmTask::refined),
+//! [`armature_arm::set_refined_guess`]). The finer control reaches a faster motion than two
+//! pieces per segment allow, every constraint still held on the dense trajectory. In a task
+//! file: `[nodes] refine = 2`.
+//!
+//! `cargo run --release -p armature-arm --example mesh_refinement`
+
+use armature_arm::{fixtures, join_stages, set_refined_guess};
+use armature_scvx::PtrStatus;
+
+/// Runs the example (its asserts are its test: `tests/gallery.rs`).
+pub(crate) fn main() {
+    let seed = fixtures::pick_and_place();
+    let coarse = seed.plan().unwrap().compile().unwrap().solve().unwrap();
+    let fine_task = seed.refined(2);
+    let mut fine = fine_task.plan().unwrap().compile().unwrap();
+    set_refined_guess(&mut fine, &coarse, 2).unwrap();
+    let both = join_stages(&coarse, fine.solve().unwrap());
+    println!(
+        "{} nodes: T = {:.4} s after {} iterations; {} nodes: T = {:.4} s after {} in all ({})",
+        seed.nodes,
+        coarse.final_time,
+        coarse.iterations,
+        fine_task.nodes,
+        both.final_time,
+        both.iterations,
+        both.status,
+    );
+    assert_eq!((coarse.status, both.status), (PtrStatus::Converged, PtrStatus::Converged));
+    assert!(both.final_time < 0.9 * coarse.final_time);
+    assert_eq!(both.nodes["time"].len(), fine_task.nodes);
+}

@@ -1,0 +1,159 @@
+//! A finer grid's guess from a coarser grid's solution: the second stage of a mesh
+//! refinement ([`ArmTask::refined`](crate::ArmTask::refined)).
+
+use std::collections::BTreeMap;
+
+use armature_scvx::{CompiledProblem, ProblemError, Solution};
+
+type Table = Vec<Vec<f64>>;
+
+/// Sets the guess of `fine` — the same task [`refined`](crate::ArmTask::refined) (or
+/// [`subdivided`](crate::ArmTask::subdivided)) by `factor` — from `coarse`'s solution: the
+/// coarse nodes keep their values; a new node between nodes `k` and `k + 1` at fraction `w`
+/// of the segment takes the dense trajectory's angles and velocities at its instant (cubic
+/// Hermite in the angles, linear in the velocities, between the two dense samples around
+/// it) and the torques `(1 − w)·u_k + w·u_{k+1}` of the coarse first-order hold, which the
+/// finer hold represents exactly; each segment's duration is split evenly. The guess is
+/// then the coarse trajectory itself, up to the dense samples' interpolation.
+///
+/// # Errors
+/// [`ProblemError::Bad`] when `coarse` lacks the arm's tables (`time`, `angle`, `velocity`,
+/// `torque` at the nodes and on the dense trajectory), has fewer than two nodes, or
+/// `factor` is 0; the problem layer's when `fine` does not have `(N − 1)·factor + 1` nodes
+/// of the same arm.
+///
+/// # Example
+/// ```
+/// let seed = armature_arm::fixtures::pick_and_place();
+/// let coarse = seed.plan()?.compile()?.solve()?;
+/// let mut fine = seed.refined(2).plan()?.compile()?;
+/// armature_arm::set_refined_guess(&mut fine, &coarse, 2)?;
+/// let solution = fine.solve()?;
+/// assert!(solution.final_time < coarse.final_time);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn set_refined_guess(
+    fine: &mut CompiledProblem,
+    coarse: &Solution,
+    factor: usize,
+) -> Result<(), ProblemError> {
+    let c = Coarse::new(coarse)?;
+    if factor == 0 {
+        return Err(bad("a factor of 0"));
+    }
+    let nf = (c.times.len() - 1) * factor + 1;
+    let (mut angle, mut velocity, mut torque) = (Vec::new(), Vec::new(), Vec::new());
+    let mut dilation = Vec::with_capacity(nf);
+    for j in 0..nf {
+        let k = (j / factor).min(c.times.len() - 2);
+        let w = (j - k * factor) as f64 / factor as f64;
+        if w == 0.0 || w == 1.0 {
+            let node = if w == 0.0 { k } else { k + 1 };
+            angle.extend_from_slice(&c.q[node]);
+            velocity.extend_from_slice(&c.v[node]);
+            torque.extend_from_slice(&c.u[node]);
+        } else {
+            c.dense_at(c.times[k] + w * (c.times[k + 1] - c.times[k]), &mut angle, &mut velocity);
+            torque.extend(c.u[k].iter().zip(&c.u[k + 1]).map(|(a, b)| (1.0 - w) * a + w * b));
+        }
+        dilation.push((nf - 1) as f64 * (c.times[k + 1] - c.times[k]) / factor as f64);
+    }
+    fine.set_guess("angle", &angle)?;
+    fine.set_guess("velocity", &velocity)?;
+    fine.set_guess("torque", &torque)?;
+    fine.set_dilation_guess(&dilation)
+}
+
+fn bad(reason: impl Into<String>) -> ProblemError {
+    ProblemError::Bad { what: "refined guess".into(), reason: reason.into() }
+}
+
+/// The tables of a coarse arm solution that the refined guess reads, checked.
+struct Coarse<'a> {
+    times: Vec<f64>,
+    q: &'a Table,
+    v: &'a Table,
+    u: &'a Table,
+    dense_t: Vec<f64>,
+    dq: &'a Table,
+    dv: &'a Table,
+}
+
+impl<'a> Coarse<'a> {
+    fn new(s: &'a Solution) -> Result<Self, ProblemError> {
+        let table = |t: &'a BTreeMap<String, Table>, name: &str| {
+            t.get(name).ok_or_else(|| bad(format!("the coarse solution has no \"{name}\"")))
+        };
+        let column = |t: &Table| t.iter().filter_map(|r| r.first().copied()).collect::<Vec<_>>();
+        let (nodes, dense) = (&s.nodes, &s.trajectory);
+        let c = Coarse {
+            times: column(table(nodes, "time")?),
+            q: table(nodes, "angle")?,
+            v: table(nodes, "velocity")?,
+            u: table(nodes, "torque")?,
+            dense_t: column(table(dense, "time")?),
+            dq: table(dense, "angle")?,
+            dv: table(dense, "velocity")?,
+        };
+        let (n, d) = (c.times.len(), c.dense_t.len());
+        let width = c.q.first().map_or(0, Vec::len);
+        let rows_ok = |t: &Table, len: usize| t.len() == len && t.iter().all(|r| r.len() == width);
+        if n < 2 || d < 2 {
+            return Err(bad("the coarse solution needs two nodes and two dense samples or more"));
+        }
+        if !(rows_ok(c.q, n) && rows_ok(c.v, n) && rows_ok(c.dq, d) && rows_ok(c.dv, d)) {
+            return Err(bad("the coarse solution's angle and velocity tables differ in shape"));
+        }
+        if c.u.len() != n || c.u.windows(2).any(|w| w[0].len() != w[1].len()) {
+            return Err(bad("the coarse solution's torque table differs in shape"));
+        }
+        Ok(c)
+    }
+
+    /// Angles (cubic Hermite with the velocities as slopes) and velocities (linear) of the
+    /// dense trajectory at `t`, appended.
+    fn dense_at(&self, t: f64, angle: &mut Vec<f64>, velocity: &mut Vec<f64>) {
+        let i = self.dense_t.partition_point(|&s| s <= t).clamp(1, self.dense_t.len() - 1);
+        let (t0, t1) = (self.dense_t[i - 1], self.dense_t[i]);
+        let h = t1 - t0;
+        let s = if h > 0.0 { ((t - t0) / h).clamp(0.0, 1.0) } else { 0.0 };
+        let (h00, h10) = (2.0 * s.powi(3) - 3.0 * s * s + 1.0, s.powi(3) - 2.0 * s * s + s);
+        let (h01, h11) = (-2.0 * s.powi(3) + 3.0 * s * s, s.powi(3) - s * s);
+        let (q0, q1, v0, v1) = (&self.dq[i - 1], &self.dq[i], &self.dv[i - 1], &self.dv[i]);
+        for c in 0..q0.len() {
+            angle.push(h00 * q0[c] + h10 * h * v0[c] + h01 * q1[c] + h11 * h * v1[c]);
+            velocity.push((1.0 - s) * v0[c] + s * v1[c]);
+        }
+    }
+}
+
+/// The outcome of a two-stage solve as one [`Solution`]: the refined stage's trajectory,
+/// status and violations, with the iterations, the history (the refined stage's records
+/// numbered on from the coarse stage's) and the timings of both stages.
+///
+/// # Example
+/// ```
+/// let seed = armature_arm::fixtures::pick_and_place();
+/// let coarse = seed.plan()?.compile()?.solve()?;
+/// let mut fine = seed.refined(2).plan()?.compile()?;
+/// armature_arm::set_refined_guess(&mut fine, &coarse, 2)?;
+/// let both = armature_arm::join_stages(&coarse, fine.solve()?);
+/// assert_eq!(both.history.len(), both.iterations);
+/// assert!(both.final_time < coarse.final_time);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn join_stages(coarse: &Solution, mut fine: Solution) -> Solution {
+    let mut history = coarse.history.clone();
+    history.extend(fine.history.drain(..).map(|mut it| {
+        it.iteration += coarse.iterations;
+        it
+    }));
+    fine.history = history;
+    fine.iterations += coarse.iterations;
+    let (t, c) = (&mut fine.timings, &coarse.timings);
+    t.discretization_ms += c.discretization_ms;
+    t.subproblem_ms += c.subproblem_ms;
+    t.solve_ms += c.solve_ms;
+    t.post_processing_ms += c.post_processing_ms;
+    fine
+}

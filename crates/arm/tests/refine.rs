@@ -1,0 +1,54 @@
+//! Mesh refinement: a coarse solution as the guess of the task on a finer grid.
+
+use armature_arm::{fixtures, set_refined_guess};
+use armature_scvx::PtrStatus;
+
+#[test]
+fn a_refined_solve_starts_on_the_coarse_trajectory_and_ends_faster() {
+    let seed = fixtures::pick_and_place();
+    let coarse = seed.plan().unwrap().compile().unwrap().solve().unwrap();
+    assert_eq!(coarse.status, PtrStatus::Converged);
+    let fine_task = seed.refined(2);
+    assert_eq!(fine_task.nodes, 2 * seed.nodes - 1);
+    let mut fine = fine_task.plan().unwrap().compile().unwrap();
+    set_refined_guess(&mut fine, &coarse, 2).unwrap();
+    let (x, u, s) = fine.guess();
+    let (nf, dof) = (fine_task.nodes, seed.chain.dof());
+    // The durations add up to the coarse final time, each coarse segment split in two.
+    let total: f64 = s[..nf - 1].iter().map(|d| d / (nf - 1) as f64).sum();
+    assert!((total - coarse.final_time).abs() < 1e-12, "{total} vs {}", coarse.final_time);
+    // The torques: the coarse nodes', and between them the first-order hold's midpoint.
+    let m = u.len() / nf;
+    for k in 0..seed.nodes - 1 {
+        let (a, b) = (&coarse.nodes["torque"][k], &coarse.nodes["torque"][k + 1]);
+        for c in 0..dof {
+            assert_eq!(u[2 * k * m + c], a[c]);
+            assert!((u[(2 * k + 1) * m + c] - 0.5 * (a[c] + b[c])).abs() < 1e-12);
+        }
+    }
+    // The angles at the coarse nodes are the coarse nodes' (the states start with them).
+    let n = x.len() / nf;
+    for k in 0..seed.nodes {
+        assert_eq!(&x[2 * k * n..2 * k * n + dof], &coarse.nodes["angle"][k][..]);
+    }
+    // Solved from there, the finer control reaches a faster motion, every constraint held
+    // on the dense trajectory.
+    let refined = fine.solve().unwrap();
+    assert_eq!(refined.status, PtrStatus::Converged, "{:?}", refined.max_violation);
+    assert!(
+        refined.final_time < 0.9 * coarse.final_time,
+        "{} vs {}",
+        refined.final_time,
+        coarse.final_time
+    );
+    // A guess that does not fit is an error, not a panic.
+    assert!(set_refined_guess(&mut fine, &coarse, 0).is_err());
+    assert!(set_refined_guess(&mut fine, &coarse, 3).is_err());
+    let mut broken = coarse.clone();
+    broken.nodes.remove("torque");
+    let e = set_refined_guess(&mut fine, &broken, 2).unwrap_err();
+    assert!(e.to_string().contains("torque"), "{e}");
+    let mut short = coarse.clone();
+    short.trajectory.get_mut("angle").unwrap().pop();
+    assert!(set_refined_guess(&mut fine, &short, 2).is_err());
+}
