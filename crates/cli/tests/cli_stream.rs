@@ -221,3 +221,47 @@ fn a_second_solve_streaming_on_a_busy_run_is_refused() {
     assert!(stderr.contains(&format!("run '{run}' is already being streamed")), "{stderr}");
     assert!(!second_out.exists(), "the refused solve wrote its result");
 }
+
+/// A refined task (`[nodes] refine = 2`) streams both stages as one solve: sequences rising
+/// across the stages, the first stage's convergence not on the wire as the end, and then the
+/// refined dense trajectory with the result's status.
+#[test]
+fn a_refined_solve_streams_both_stages_as_one() {
+    let run = format!("cli-refine-{}", std::process::id());
+    let (listener, _rest) = listen(&["listen", &run, "--json", "--timeout", "120"]);
+    let dir = scratch("stream-refine");
+    let task = dir.path().join("task.toml");
+    let text = include_str!("../../../examples/pick-and-place.toml")
+        .replace("per_segment = 2 ", "refine = 2\nper_segment = 2 ");
+    std::fs::write(&task, text).unwrap();
+    let result = dir.path().join("result.json");
+    let (code, _, stderr) = armature(&[
+        "solve",
+        task.to_str().unwrap(),
+        "-q",
+        "--stream",
+        &run,
+        "-o",
+        result.to_str().unwrap(),
+    ]);
+    let out = listener.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    assert_solved(code, &r, &stderr);
+    let lines: Vec<Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let seqs: Vec<u64> = lines.iter().map(|l| l["sequence"].as_u64().unwrap()).collect();
+    assert!(seqs.windows(2).all(|w| w[0] < w[1]), "{seqs:?}");
+    let iterations = r["iterations"].as_u64().unwrap();
+    let (last, nodal) = lines.split_last().unwrap();
+    assert_eq!(last["sequence"], iterations + 1);
+    assert_eq!((&last["dense"], &last["status"]), (&Value::Bool(true), &r["status"]));
+    // Only the refined stage's last iterate ends the solve; it has the refined grid's nodes.
+    let (end, before) = nodal.split_last().unwrap();
+    assert_eq!(end["status"], r["status"]);
+    assert!(before.iter().all(|l| l["status"] == "running"), "one end only");
+    assert_eq!(end["rows"].as_array().unwrap().len(), 21);
+}

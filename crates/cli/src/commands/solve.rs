@@ -221,12 +221,25 @@ fn start_stream(o: &OutputArgs, keypoints: &[String]) -> Result<Option<Streamer>
     Ok(Some(s))
 }
 
+/// Where a solve stands among the stages of a refinement (see [`solve_observed`]).
+#[derive(Debug, Clone, Copy)]
+struct Stage {
+    offset: usize,
+    last: bool,
+}
+
 /// Solves, printing the iteration table, collecting the iterates the view draws and
 /// publishing each iterate and then the dense trajectory when streaming.
+///
+/// `stage`: the iterations of the stages before this one, and whether another follows. The
+/// iterations are numbered on from the earlier stages' (in the table, the iterates and the
+/// stream's sequence), and a stage that converges with another to follow reports its last
+/// iteration as still running: only the final stage's end is the solve's.
 fn solve_observed(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
     (src, quiet): (Source<'_>, bool),
+    stage: Stage,
 ) -> Result<(Solution, Vec<Iterate>), CliError> {
     if !quiet {
         let _ = IterationTable::header(&mut std::io::stderr());
@@ -238,6 +251,12 @@ fn solve_observed(
     let solution = loaded
         .compiled
         .solve_with(|it, traj| {
+            let mut it = it.clone();
+            it.iteration += stage.offset;
+            if !stage.last && it.status == Some(PtrStatus::Converged) {
+                it.status = None;
+            }
+            let it = &it;
             if !quiet {
                 let _ = IterationTable::row(&mut std::io::stderr(), it);
             }
@@ -407,8 +426,10 @@ fn solve_stages(
     streamer: &mut Option<Streamer>,
     (src, quiet): (Source<'_>, bool),
 ) -> Result<(Solution, Vec<Iterate>), CliError> {
-    let (coarse, mut iterates) = solve_observed(loaded, streamer, (src, quiet))?;
-    let Some((factor, plan, mut compiled)) = loaded.refined.take() else {
+    let refined = loaded.refined.take();
+    let first = Stage { offset: 0, last: refined.is_none() };
+    let (coarse, mut iterates) = solve_observed(loaded, streamer, (src, quiet), first)?;
+    let Some((factor, plan, mut compiled)) = refined else {
         return Ok((coarse, iterates));
     };
     if coarse.status != PtrStatus::Converged {
@@ -428,12 +449,10 @@ fn solve_stages(
         ),
     );
     (loaded.plan, loaded.compiled) = (Some(plan), compiled);
-    let (fine, more) = solve_observed(loaded, streamer, (src, quiet))?;
+    let second = Stage { offset: coarse.iterations, last: true };
+    let (fine, more) = solve_observed(loaded, streamer, (src, quiet), second)?;
     // The guess's iterate of the second stage is the first stage's result: not drawn again.
-    iterates.extend(more.into_iter().skip(1).map(|mut it| {
-        it.iteration += coarse.iterations;
-        it
-    }));
+    iterates.extend(more.into_iter().skip(1));
     Ok((armature_arm::join_stages(&coarse, fine), iterates))
 }
 
