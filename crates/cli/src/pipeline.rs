@@ -107,15 +107,8 @@ pub fn arm_task(
     Ok(arm_task)
 }
 
-/// Checks a task against its robot and builds the problem and its guess.
-///
-/// # Errors
-/// The first problem found, as `file:line:col: reason`.
-pub fn plan(task: &TaskFile, src: Source<'_>, path: Option<&Path>) -> Result<Plan, LocatedError> {
-    plan_arm(task, src, arm_task(task, src, path)?)
-}
-
-/// Plans an [`ArmTask`] built from `task` (or refined from one), errors located in `task`.
+/// Checks an [`ArmTask`] built from `task` ([`arm_task`], or refined from one) against its
+/// robot and builds the problem and its guess, errors located in `task`.
 ///
 /// # Errors
 /// The first problem found, as `file:line:col: reason`.

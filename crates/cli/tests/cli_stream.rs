@@ -36,6 +36,17 @@ fn listen(
     (child, rest)
 }
 
+/// Waits for a `listen --json` to end, successfully; its messages, one JSON value each.
+fn json_messages(listener: std::process::Child) -> Vec<Value> {
+    let out = listener.wait_with_output().unwrap();
+    assert!(out.status.success());
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
 #[test]
 fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
     let run = format!("cli-json-{}", std::process::id());
@@ -44,13 +55,7 @@ fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
     let result = dir.path().join("result.json");
     let (code, _, stderr) =
         armature(&["demo", "-q", "--stream", &run, "-o", result.to_str().unwrap()]);
-    let out = listener.wait_with_output().unwrap();
-    assert!(out.status.success());
-    let lines: Vec<Value> = String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = json_messages(listener);
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
     assert_solved(code, &r, &stderr);
     let iterations = r["iterations"].as_u64().unwrap() as usize;
@@ -244,15 +249,9 @@ fn a_refined_solve_streams_both_stages_as_one() {
         "-o",
         result.to_str().unwrap(),
     ]);
-    let out = listener.wait_with_output().unwrap();
-    assert!(out.status.success());
+    let lines = json_messages(listener);
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
     assert_solved(code, &r, &stderr);
-    let lines: Vec<Value> = String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
     let seqs: Vec<u64> = lines.iter().map(|l| l["sequence"].as_u64().unwrap()).collect();
     assert!(seqs.windows(2).all(|w| w[0] < w[1]), "{seqs:?}");
     let iterations = r["iterations"].as_u64().unwrap();
