@@ -224,8 +224,12 @@ fn switching_far_peak_rows_off_keeps_the_collision_iterates() {
     assert_eq!(s.ocp.interval_constraints[k].activation, Some(0.02));
     let mut all_in = s.ocp.clone();
     all_in.interval_constraints[k].activation = None;
+    // Every subproblem solved to the interior point's tolerance: inexact solves (to 1e-5
+    // far from the optimum) would let the two take different paths from the start.
+    let mut settings = PtrSettings::default();
+    settings.subproblem.inexact = 0.0;
     let solve = |ocp: &armature_scvx::Ocp| {
-        let mut ptr = Ptr::new(ocp.clone(), PtrSettings::default()).unwrap();
+        let mut ptr = Ptr::new(ocp.clone(), settings.clone()).unwrap();
         let r = ptr.solve(&s.x, &s.u, &s.s).unwrap();
         (r, ptr.dimensions().reduced_kkt_nonzeros.expect("interior point"))
     };

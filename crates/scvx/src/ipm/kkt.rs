@@ -198,9 +198,9 @@ impl ReducedKkt {
     pub(super) fn reorder(&mut self, stages: &[Option<usize>]) {
         let (colptr, rowval) = (&self.pattern.colptr, &self.pattern.rowval);
         let last = self.diag.len() - self.dense.len();
-        let candidates = staged_orderings(colptr, rowval, stages, last);
-        let regularization = LDL_REGULARIZATION;
         let than = self.ldl.work();
+        let candidates = staged_orderings(colptr, rowval, stages, last, than);
+        let regularization = LDL_REGULARIZATION;
         if let Some(ldl) =
             Ldl::cheaper(colptr, rowval, &self.signs, regularization, &candidates, than)
         {

@@ -189,6 +189,8 @@ pub struct InteriorPoint {
     settings: IpmSettings,
     /// Divisor of the absolute gap tolerance (see [`InteriorPoint::set_objective_scale`]).
     objective_scale: f64,
+    /// This solve's tolerance (see [`InteriorPoint::set_tolerance`]).
+    tolerance: f64,
     p_colptr: Vec<usize>,
     p_rowval: Vec<usize>,
     a_colptr: Vec<usize>,
@@ -284,7 +286,6 @@ impl InteriorPoint {
         Ok(InteriorPoint {
             n,
             m,
-            settings,
             p_colptr: p_colptr.to_vec(),
             p_rowval: p_rowval.to_vec(),
             a_colptr: a_colptr.to_vec(),
@@ -319,6 +320,8 @@ impl InteriorPoint {
             objective: f64::NAN,
             has_solution: false,
             objective_scale: 1.0,
+            tolerance: settings.tolerance,
+            settings,
         })
     }
 
@@ -404,6 +407,15 @@ impl InteriorPoint {
         self.objective
     }
 
+    /// Sets the tolerance of the next solves to `tolerance`, or to
+    /// [`IpmSettings::tolerance`] if that is tighter (or `tolerance` is not a finite
+    /// number): a caller that needs a rough solution (PTR far from its optimum, where the
+    /// step only has to decrease the merit) saves the last few iterations.
+    pub fn set_tolerance(&mut self, tolerance: f64) {
+        let floor = self.settings.tolerance;
+        self.tolerance = if tolerance.is_finite() { tolerance.max(floor) } else { floor };
+    }
+
     /// Declares that the objectives of the next solves are the original one divided by
     /// `scale` (default 1; anything not finite and positive means 1). The absolute gap
     /// tolerance becomes `tolerance / scale`, so a solution is as accurate in the original
@@ -444,7 +456,7 @@ impl InteriorPoint {
         assert_eq!(q.len(), self.n, "q");
         assert_eq!(a.len(), self.rows.nnz(), "A values");
         assert_eq!(b.len(), self.m, "b");
-        let (m0, tol) = (self.cones.zero, self.settings.tolerance);
+        let (m0, tol) = (self.cones.zero, self.tolerance);
         self.compact(a);
         self.select_kkt();
         self.iterations = 0;

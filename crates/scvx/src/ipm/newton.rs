@@ -130,7 +130,7 @@ impl InteriorPoint {
         let bnorm = inf_norm(&nw.b1).max(inf_norm(&nw.b2)).max(inf_norm(&nw.b3));
         // Refine until the direction's error is well below what the tolerance asks of the
         // iterates (an error left in a direction lands in the next residuals).
-        let target = 1e-2 * self.settings.tolerance * (1.0 + bnorm);
+        let target = 1e-2 * self.tolerance * (1.0 + bnorm);
         let steps = if refine { self.settings.refinement_steps } else { 0 };
         for _ in 0..steps {
             // r = b − K(Δx, Δz, Δs)

@@ -31,6 +31,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The staged candidate orderings (`perm[new] = old`) of the symmetric pattern whose upper
 /// triangle is `(colptr, rowval)`, given the stage of some of its first `stages.len()`
@@ -43,9 +44,12 @@ pub(super) fn staged_orderings(
     rowval: &[usize],
     stages: &[Option<usize>],
     last: usize,
+    than: usize,
 ) -> Vec<Vec<usize>> {
     let adj = adjacency(colptr, rowval);
     let coupled = coupled_stages(&adj, stages);
+    // The work of the cheapest sweep finished so far: a sweep that exceeds it cannot win.
+    let best = AtomicUsize::new(usize::MAX);
     let sweep = |assign: Assign| {
         let stage = propagate(&adj, stages, assign, &coupled);
         let key: Vec<i64> = stage
@@ -53,7 +57,9 @@ pub(super) fn staged_orderings(
             .enumerate()
             .map(|(v, &s)| if v < last { -(s as i64) } else { i64::MAX })
             .collect();
-        staged_minimum_degree(&adj, &key)
+        let (order, work) = staged_minimum_degree(&adj, &key, than, &best)?;
+        best.fetch_min(work, Ordering::Relaxed);
+        Some(order)
     };
     // (The last stage has no next one: it is never coupled, and says nothing.)
     let inner = &coupled[..coupled.len().saturating_sub(1)];
@@ -62,12 +68,12 @@ pub(super) fn staged_orderings(
         // seed's collision variant 146 thousand multiply-adds against 165 for the least
         // and 182 for the greatest stage), so the other two sweeps are not run — this is
         // the analysis PTR repeats when it switches rows off.
-        return vec![sweep(Assign::Mixed)];
+        return sweep(Assign::Mixed).into_iter().collect();
     }
     // The two sweeps are independent: one per core (on a 2-core machine this halves the
     // analysis's ordering time).
     let (least, greatest) = rayon::join(|| sweep(Assign::Least), || sweep(Assign::Greatest));
-    vec![least, greatest]
+    least.into_iter().chain(greatest).collect()
 }
 
 /// Which stage an unstaged node takes among those of its staged neighbours (least `lo`,
@@ -155,9 +161,20 @@ fn propagate(
 }
 
 /// Minimum degree on the elimination graph, restricted at each step to the alive nodes of
-/// least `key` (ties: lowest index). The queue holds (key, degree, node) entries and skips
-/// the stale ones; neighbour sets are unsorted, merged through a stamp array.
-fn staged_minimum_degree(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
+/// least `key` (ties: lowest index), with its [`factor_work`] (each eliminated node's clique
+/// is its column of L). The queue holds (key, degree, node) entries and skips the stale
+/// ones; neighbour sets are unsorted, merged through a stamp array.
+///
+/// `None` once the work reaches `than` or exceeds `best` (read as it goes; another sweep
+/// may lower it): such an ordering would not be kept, and a sweep that fills in badly costs
+/// far more than a good one (on the seed's collision variant one sweep took 85 ms against
+/// the other's 5 before this cut).
+fn staged_minimum_degree(
+    adj: &[Vec<usize>],
+    key: &[i64],
+    than: usize,
+    best: &AtomicUsize,
+) -> Option<(Vec<usize>, usize)> {
     let dim = adj.len();
     let mut g: Vec<Vec<usize>> = adj.to_vec();
     let mut queue: BinaryHeap<Reverse<(i64, usize, usize)>> =
@@ -165,6 +182,7 @@ fn staged_minimum_degree(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
     let mut alive = vec![true; dim];
     let mut stamp = vec![usize::MAX; dim];
     let mut order = Vec::with_capacity(dim);
+    let mut work = 0;
     while let Some(Reverse((_, degree, v))) = queue.pop() {
         if !alive[v] || degree != g[v].len() {
             continue;
@@ -172,6 +190,10 @@ fn staged_minimum_degree(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
         alive[v] = false;
         order.push(v);
         let clique = std::mem::take(&mut g[v]);
+        work += clique.len() * (clique.len() + 1) / 2;
+        if work >= than || work > best.load(Ordering::Relaxed) {
+            return None;
+        }
         for &a in &clique {
             // g[a] ← (g[a] ∪ clique) ∖ {a, v}.
             let ga = &mut g[a];
@@ -188,7 +210,7 @@ fn staged_minimum_degree(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
             queue.push(Reverse((key[a], ga.len(), a)));
         }
     }
-    order
+    Some((order, work))
 }
 
 #[cfg(test)]
@@ -213,6 +235,11 @@ mod tests {
         (colptr, rowval)
     }
 
+    /// The unbounded minimum degree's order.
+    fn md(adj: &[Vec<usize>], key: &[i64]) -> Vec<usize> {
+        staged_minimum_degree(adj, key, usize::MAX, &AtomicUsize::new(usize::MAX)).unwrap().0
+    }
+
     fn is_permutation(p: &[usize], dim: usize) -> bool {
         let mut seen = vec![false; dim];
         p.len() == dim && p.iter().all(|&v| v < dim && !std::mem::replace(&mut seen[v], true))
@@ -225,9 +252,32 @@ mod tests {
     fn minimum_degree_eliminates_an_arrows_leaves_first() {
         let edges: Vec<_> = (1..6).map(|leaf| (0, leaf)).collect();
         let (cp, rv) = pattern(6, &edges);
-        let order = staged_minimum_degree(&adjacency(&cp, &rv), &[0; 6]);
+        let order = md(&adjacency(&cp, &rv), &[0; 6]);
         assert!(is_permutation(&order, 6));
         assert!(order[..4].iter().all(|&v| v != 0), "{order:?}");
+    }
+
+    /// The work counted as the sweep goes is the factor's (each clique a column of L), and
+    /// a sweep stops, with nothing, once it reaches `than` or exceeds another's `best`.
+    #[test]
+    fn a_sweep_counts_its_work_and_stops_at_the_bound() {
+        // A 5-cycle: the first elimination joins its two neighbours (fill 1), leaving a
+        // 4-cycle with a chord: columns of 2, 2, 2, 1, 0 entries, work 3 + 3 + 3 + 1 = 10.
+        let (cp, rv) = pattern(5, &[(0, 1), (1, 2), (2, 3), (3, 4), (4, 0)]);
+        let adj = adjacency(&cp, &rv);
+        let unbounded = AtomicUsize::new(usize::MAX);
+        let (order, work) = staged_minimum_degree(&adj, &[0; 5], usize::MAX, &unbounded).unwrap();
+        assert!(is_permutation(&order, 5));
+        assert_eq!(work, 10);
+        assert!(staged_minimum_degree(&adj, &[0; 5], 11, &unbounded).is_some());
+        assert!(staged_minimum_degree(&adj, &[0; 5], 10, &unbounded).is_none());
+        // Another sweep's equal work does not stop this one (a tie keeps both), a lower does.
+        assert!(staged_minimum_degree(&adj, &[0; 5], 11, &AtomicUsize::new(10)).is_some());
+        assert!(staged_minimum_degree(&adj, &[0; 5], 11, &AtomicUsize::new(9)).is_none());
+        // In staged_orderings, a bound below both sweeps' work leaves no candidate.
+        let stages = [Some(0), Some(0), Some(1), Some(1), Some(2)];
+        assert_eq!(staged_orderings(&cp, &rv, &stages, 5, 10).len(), 0);
+        assert!(!staged_orderings(&cp, &rv, &stages, 5, usize::MAX).is_empty());
     }
 
     /// The stage key overrides degree: stage 1's leaf waits for all of stage 0.
@@ -236,10 +286,10 @@ mod tests {
         // A path 0 – 1 – 2 – 3 with stages [1, 0, 0, 1].
         let (cp, rv) = pattern(4, &[(0, 1), (1, 2), (2, 3)]);
         let adj = adjacency(&cp, &rv);
-        let order = staged_minimum_degree(&adj, &[1, 0, 0, 1]);
+        let order = md(&adj, &[1, 0, 0, 1]);
         assert!(is_permutation(&order, 4));
         assert!(order[..2].iter().all(|v| [1, 2].contains(v)), "{order:?}");
-        let backward = staged_minimum_degree(&adj, &[-1, 0, 0, -1]);
+        let backward = md(&adj, &[-1, 0, 0, -1]);
         assert!(backward[..2].iter().all(|v| [0, 3].contains(v)), "{backward:?}");
     }
 
@@ -274,13 +324,24 @@ mod tests {
         let adj = adjacency(&cp, &rv);
         let stages = [Some(0), Some(0), Some(1), Some(1), Some(2), Some(2)];
         assert_eq!(coupled_stages(&adj, &stages), vec![true, false, false]);
-        let candidates = staged_orderings(&cp, &rv, &stages, 7);
+        let candidates = staged_orderings(&cp, &rv, &stages, 7, usize::MAX);
         assert_eq!(candidates.len(), 1);
         assert!(is_permutation(&candidates[0], 7));
         // Without the two cross edges no stages are coupled: the least and the greatest.
         let (cp, rv) = pattern(7, &[(0, 2), (1, 3), (2, 4), (6, 0), (6, 3), (5, 4)]);
         assert_eq!(coupled_stages(&adjacency(&cp, &rv), &stages), vec![false, false, false]);
-        assert_eq!(staged_orderings(&cp, &rv, &stages, 7).len(), 2);
+        let candidates = staged_orderings(&cp, &rv, &stages, 7, usize::MAX);
+        let adj = adjacency(&cp, &rv);
+        let [least, greatest] = [Assign::Least, Assign::Greatest].map(|assign| {
+            let stage = propagate(&adj, &stages, assign, &[false; 3]);
+            let key: Vec<i64> = stage.iter().map(|&s| -(s as i64)).collect();
+            let unbounded = AtomicUsize::new(usize::MAX);
+            staged_minimum_degree(&adj, &key, usize::MAX, &unbounded).unwrap()
+        });
+        // Both sweeps ran; the dearer one is kept unless it was stopped by the cheaper.
+        let cheapest = if greatest.1 < least.1 { &greatest.0 } else { &least.0 };
+        assert!(candidates.contains(cheapest));
+        assert!(candidates.iter().all(|c| *c == least.0 || *c == greatest.0));
     }
 
     /// Every candidate is a permutation, and the work count is the up-looking one.
@@ -289,8 +350,8 @@ mod tests {
         let edges: Vec<_> = (0..9).map(|v| (v, v + 1)).chain([(0, 5), (2, 7)]).collect();
         let (cp, rv) = pattern(10, &edges);
         let stages: Vec<Option<usize>> = (0..10).map(|v| (v % 3 != 0).then_some(v / 2)).collect();
-        let candidates = staged_orderings(&cp, &rv, &stages, 10);
-        assert_eq!(candidates.len(), 2);
+        let candidates = staged_orderings(&cp, &rv, &stages, 10, usize::MAX);
+        assert!((1..=2).contains(&candidates.len()));
         assert!(candidates.iter().all(|p| is_permutation(p, 10)));
         // Columns with 0, 1, 2 and 3 entries below the diagonal.
         assert_eq!(factor_work(&[0, 0, 1, 3, 6]), 1 + 3 + 6);

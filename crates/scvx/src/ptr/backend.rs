@@ -15,6 +15,9 @@ pub(super) struct ConicData<'a> {
     pub(super) b: &'a Vec<f64>,
     /// The trust-region weight (the native solver scales a heavy objective by it).
     pub(super) lam_tr: f64,
+    /// The accuracy this solve needs (the native solver's tolerance, never tighter than its
+    /// own setting; see [`SubproblemSettings::inexact`]). Clarabel keeps its own.
+    pub(super) tolerance: f64,
 }
 
 /// How one backend solve ended.
@@ -80,6 +83,7 @@ impl ConicBackend for NativeBackend {
         let sigma = d.lam_tr.max(1.0);
         let mut scaled = self.scale_objective;
         let mut iterations = 0;
+        self.ipm.set_tolerance(d.tolerance);
         loop {
             let s = if scaled { sigma } else { 1.0 };
             // The same accuracy in the original units: the gap tolerance scales too.

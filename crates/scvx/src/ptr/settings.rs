@@ -166,7 +166,7 @@ pub enum SubproblemSolver {
 /// settings.subproblem.interior_point.max_iterations = 80;
 /// assert!(settings.validate().is_ok());
 /// ```
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct SubproblemSettings {
@@ -179,10 +179,47 @@ pub struct SubproblemSettings {
     /// a different path than with Clarabel; first-order PTR with the exact-penalty merit
     /// takes the same one.
     pub solver: SubproblemSolver,
+    /// Inexact solves: far from the optimum a step only has to decrease the merit, so the
+    /// native interior point solves each subproblem to the tolerance
+    /// `inexact · |predicted| / max(1, |cost|)` of the last iteration's predicted merit
+    /// decrease, at most [`loosest_tolerance`](Self::loosest_tolerance) and at least its
+    /// own [`IpmSettings::tolerance`] (which the last iterations, whose predicted decrease
+    /// vanishes, reach). 0 solves every subproblem to that tolerance. Default 1e-3.
+    pub inexact: f64,
+    /// The loosest tolerance of an inexact solve (the first subproblem's). Default 1e-5.
+    pub loosest_tolerance: f64,
     /// The native interior point's settings (also used when it is only the first try).
     pub interior_point: IpmSettings,
     /// Clarabel's settings (the fallback, or the solver).
     pub clarabel: ClarabelSettings,
+}
+
+impl Default for SubproblemSettings {
+    fn default() -> Self {
+        SubproblemSettings {
+            solver: SubproblemSolver::default(),
+            inexact: 1e-3,
+            loosest_tolerance: 1e-5,
+            interior_point: IpmSettings::default(),
+            clarabel: ClarabelSettings::default(),
+        }
+    }
+}
+
+impl SubproblemSettings {
+    /// The tolerance of the next subproblem after `last` (see [`inexact`](Self::inexact)).
+    pub(super) fn inexact_tolerance(&self, last: Option<&Iteration>) -> f64 {
+        let tight = self.interior_point.tolerance;
+        if self.inexact == 0.0 {
+            return tight;
+        }
+        let wanted = last.map_or(f64::INFINITY, |it| {
+            let relative = it.predicted.abs() / it.cost.abs().max(1.0);
+            // A record without a prediction (a failed solve) asks for the tight tolerance.
+            if relative.is_finite() { self.inexact * relative } else { tight }
+        });
+        wanted.min(self.loosest_tolerance).max(tight)
+    }
 }
 
 /// The settings of Clarabel that armature exposes; the rest keep Clarabel's defaults, except
@@ -326,6 +363,8 @@ impl PtrSettings {
             }
         }
         let nonnegative = [
+            ("subproblem.inexact", self.subproblem.inexact),
+            ("subproblem.loosest_tolerance", self.subproblem.loosest_tolerance),
             ("subproblem.interior_point.regularization", ip.regularization),
             ("subproblem.interior_point.warm_start_margin", ip.warm_start_margin),
         ];

@@ -48,7 +48,9 @@ impl Ptr {
         set: &SubproblemSettings,
         record: &mut Iteration,
     ) -> Result<(), PtrStatus> {
-        let data = ConicData { p: &st.pvals, q: &st.q, a: &st.nz, b: &st.b, lam_tr: st.lam_tr };
+        let tolerance = set.inexact_tolerance(st.history.last());
+        let (p, q, a, b, lam_tr) = (&st.pvals, &st.q, &st.nz, &st.b, st.lam_tr);
+        let data = ConicData { p, q, a, b, lam_tr, tolerance };
         if set.solver == SubproblemSolver::InteriorPoint {
             if st.native.is_none() && !st.native_unusable {
                 let ipm = self.interior_point().ok();

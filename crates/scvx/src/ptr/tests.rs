@@ -623,3 +623,32 @@ fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
     let (_, worst) = ptr.eval_peaks(&d, &mut ev, &weights, GridAt::Other);
     assert!((worst - 1e-4).abs() < 1e-9, "largest excess {worst}, the velocity's is 1e-4");
 }
+
+/// The inexact solves' tolerance: loosest for the first subproblem, then `inexact` times
+/// the last predicted decrease (relative to the cost where the cost exceeds 1), never
+/// tighter than the interior point's own tolerance; 0 turns it off, and a record without a
+/// prediction asks for the tight tolerance.
+#[test]
+fn inexact_solves_follow_the_last_predicted_decrease() {
+    use super::{Iteration, SubproblemSettings};
+    let set = SubproblemSettings::default();
+    let (tight, loosest) = (set.interior_point.tolerance, set.loosest_tolerance);
+    assert_eq!(set.inexact_tolerance(None), loosest);
+    let record = |cost: f64, predicted: f64| Iteration {
+        cost,
+        predicted,
+        ..Iteration::pending(1, 1.0, 1.0)
+    };
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
+    assert_eq!(set.inexact_tolerance(Some(&record(1.2, 0.3))), loosest);
+    assert!(close(set.inexact_tolerance(Some(&record(0.5, 2e-3))), 1e-3 * 2e-3));
+    assert!(close(set.inexact_tolerance(Some(&record(4.0, 2e-3))), 1e-3 * 2e-3 / 4.0));
+    assert_eq!(set.inexact_tolerance(Some(&record(1.2, 1e-9))), tight);
+    assert_eq!(set.inexact_tolerance(Some(&record(1.2, f64::NAN))), tight);
+    let exact = SubproblemSettings { inexact: 0.0, ..SubproblemSettings::default() };
+    assert_eq!(exact.inexact_tolerance(None), tight);
+    assert_eq!(exact.inexact_tolerance(Some(&record(1.2, 0.3))), tight);
+    let mut bad = crate::PtrSettings::default();
+    bad.subproblem.inexact = -1.0;
+    assert_eq!(bad.validate().unwrap_err().field, "subproblem.inexact");
+}
