@@ -23,6 +23,7 @@ pub(crate) fn states_and_dynamics(task: &ArmTask, dynamics: &Resolved, guess: &G
         .bounds(&qlo, &qhi)
         .initial_value(&ik.q[0])
         .guess(ik.q.iter().flatten().copied().collect());
+    let angle = if task.angle_limit_peaks { angle.with_interval_bounds() } else { angle };
     let velocity = State::new("velocity", n)
         .bounds(&velocity_limit.iter().map(|v| -v).collect::<Vec<_>>(), velocity_limit)
         .initial_value(&vec![0.0; n])

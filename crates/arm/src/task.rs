@@ -158,6 +158,11 @@ pub struct ArmTask {
     /// linearization has no gradient where the motion rides a limit. Default: the model's
     /// ([`DynamicsModel::default_velocity_limit_peaks`]).
     pub velocity_limit_peaks: bool,
+    /// Also bound the joint angles at every integration grid point (rows with their exact
+    /// sensitivities), besides the limits' continuous-time integral. Default false: the
+    /// integral holds them on the tasks' own grids; [`refined`](Self::refined) turns the rows
+    /// on, as shorter segments loosen the integral.
+    pub angle_limit_peaks: bool,
     /// The joint angles at the start (default: IK of the first waypoint).
     pub start: Option<Vec<f64>>,
     /// The final time.
@@ -204,23 +209,26 @@ impl ArmTask {
     }
 
     /// The second stage of a mesh refinement: the task [`subdivided`](Self::subdivided) by
-    /// `factor`, with its velocities bounded at every integration grid point
-    /// ([`velocity_limit_peaks`](Self::velocity_limit_peaks)) whatever the model's default.
+    /// `factor`, with its velocities and angles bounded at every integration grid point
+    /// ([`velocity_limit_peaks`](Self::velocity_limit_peaks),
+    /// [`angle_limit_peaks`](Self::angle_limit_peaks)) whatever the model's default.
     /// Solved from the first stage's solution ([`set_refined_guess`](crate::set_refined_guess)),
     /// its faster motion rides the velocity limits along whole segments, where the limits'
     /// continuous-time integral alone lets the rigid-body model's velocities exceed them by
     /// 1e-4 to 8e-4 rad/s between the nodes (11 of the suite's 20 UR5e rigid-body tasks,
-    /// BENCHMARKS.md).
+    /// BENCHMARKS.md); with refine 3 the integral let one arm7 task's joint pass its angle
+    /// limit by 2.65e-4 rad.
     ///
     /// # Example
     /// ```
     /// let ur5e = armature_arm::fixtures::ur5e_rigid_body();
     /// assert!(!ur5e.velocity_limit_peaks);
     /// let fine = ur5e.refined(2);
-    /// assert!(fine.velocity_limit_peaks);
+    /// assert!(fine.velocity_limit_peaks && fine.angle_limit_peaks);
+    /// assert!(!ur5e.angle_limit_peaks);
     /// assert_eq!(fine.nodes, ur5e.subdivided(2).nodes);
     /// ```
     pub fn refined(&self, factor: usize) -> ArmTask {
-        ArmTask { velocity_limit_peaks: true, ..self.subdivided(factor) }
+        ArmTask { velocity_limit_peaks: true, angle_limit_peaks: true, ..self.subdivided(factor) }
     }
 }

@@ -6,11 +6,21 @@ use armature_scvx::PtrStatus;
 #[test]
 fn a_refined_solve_starts_on_the_coarse_trajectory_and_ends_faster() {
     let seed = fixtures::pick_and_place();
-    let coarse = seed.plan().unwrap().compile().unwrap().solve().unwrap();
+    let coarse_plan = seed.plan().unwrap();
+    let coarse = coarse_plan.compile().unwrap().solve().unwrap();
     assert_eq!(coarse.status, PtrStatus::Converged);
     let fine_task = seed.refined(2);
     assert_eq!(fine_task.nodes, 2 * seed.nodes - 1);
-    let mut fine = fine_task.plan().unwrap().compile().unwrap();
+    // The refined stage bounds angles and velocities at every grid point; the task's own
+    // grid holds its angles by the limits' integral alone.
+    let bounded = |plan: &armature_arm::ArmPlan| {
+        plan.problem.states.iter().map(|s| (s.name.clone(), s.interval_bounds)).collect::<Vec<_>>()
+    };
+    let (angle, velocity) = ("angle".to_string(), "velocity".to_string());
+    assert_eq!(bounded(&coarse_plan), [(angle.clone(), false), (velocity.clone(), true)]);
+    let fine_plan = fine_task.plan().unwrap();
+    assert_eq!(bounded(&fine_plan), [(angle, true), (velocity, true)]);
+    let mut fine = fine_plan.compile().unwrap();
     set_refined_guess(&mut fine, &coarse, 2).unwrap();
     let (x, u, s) = fine.guess();
     let (nf, dof) = (fine_task.nodes, seed.chain.dof());

@@ -94,6 +94,9 @@ pub fn arm_task(
         velocity_limit,
         torque_limit,
         velocity_limit_peaks,
+        // Angles are held by the limits' integral on the task's own grid (a refined stage,
+        // `ArmTask::refined`, adds their rows).
+        angle_limit_peaks: false,
         start: robot.start.as_ref().map(|s| s.get_ref().clone()),
         time: TimeWindow { min: t_min, max: t_max, minimize: task.time.minimize },
         nodes,

@@ -240,8 +240,8 @@ pub struct NodesSpec {
     #[schemars(with = "Option<usize>")]
     pub count: Option<Spanned<usize>>,
     /// Mesh refinement: after converging on these nodes, solve again from that solution on
-    /// a grid this many times finer (`ArmTask::refined`: every segment split, velocities
-    /// bounded at every integration grid point; default 1, no second stage).
+    /// a grid this many times finer (`ArmTask::refined`: every segment split, velocities and
+    /// angles bounded at every integration grid point; default 1, no second stage).
     #[serde(default)]
     #[schemars(with = "Option<usize>")]
     pub refine: Option<Spanned<usize>>,
