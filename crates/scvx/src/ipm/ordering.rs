@@ -8,8 +8,8 @@
 //! arithmetic than AMD (plain) and 25 % less (with the collision rows). Whether a row that
 //! links stages k and k + 1 is best eliminated with k or with k + 1 depends on the problem
 //! (k for the plain seed, k + 1 with the collision rows; the other choice costs 7–52 % more
-//! than AMD), so [`staged_orderings`] offers both and the caller keeps the cheapest, AMD
-//! included. What decides it is whether K couples consecutive stages directly (a peak row
+//! than AMD), so [`staged_orderings`] runs both and keeps the cheaper, which the caller
+//! weighs against AMD. What decides it is whether K couples consecutive stages directly (a peak row
 //! over a segment's states and both its controls, folded into K, does): where only some
 //! segments are coupled so (PTR switches far segments' peak rows off), a mixed sweep takes
 //! the greatest stage there and the least elsewhere, and is then the only one run — on the
@@ -38,7 +38,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// columns: backward sweeps, with unstaged nodes taking the least or the greatest stage of
 /// their neighbours — or, when only some consecutive stages are coupled directly (see
 /// [`Assign::Mixed`]), the one sweep that takes the greatest where they are and the least
-/// elsewhere. Nodes from `last` on come after all others.
+/// elsewhere. Nodes from `last` on come after all others. Of the sweeps, only the cheapest
+/// that needs less arithmetic than `than` is returned (none if no sweep does): each counts
+/// its factor work as it goes, so the caller's symbolic factorization runs once.
 pub(super) fn staged_orderings(
     colptr: &[usize],
     rowval: &[usize],
@@ -59,7 +61,7 @@ pub(super) fn staged_orderings(
             .collect();
         let (order, work) = staged_minimum_degree(&adj, &key, than, &best)?;
         best.fetch_min(work, Ordering::Relaxed);
-        Some(order)
+        Some((order, work))
     };
     // (The last stage has no next one: it is never coupled, and says nothing.)
     let inner = &coupled[..coupled.len().saturating_sub(1)];
@@ -68,12 +70,17 @@ pub(super) fn staged_orderings(
         // seed's collision variant 146 thousand multiply-adds against 165 for the least
         // and 182 for the greatest stage), so the other two sweeps are not run — this is
         // the analysis PTR repeats when it switches rows off.
-        return sweep(Assign::Mixed).into_iter().collect();
+        return sweep(Assign::Mixed).into_iter().map(|(order, _)| order).collect();
     }
     // The two sweeps are independent: one per core (on a 2-core machine this halves the
     // analysis's ordering time).
     let (least, greatest) = rayon::join(|| sweep(Assign::Least), || sweep(Assign::Greatest));
-    least.into_iter().chain(greatest).collect()
+    // The cheaper, the least sweep on a tie (the one a first-minimum search keeps).
+    let cheapest = match (least, greatest) {
+        (Some(l), Some(g)) => Some(if g.1 < l.1 { g } else { l }),
+        (l, g) => l.or(g),
+    };
+    cheapest.into_iter().map(|(order, _)| order).collect()
 }
 
 /// Which stage an unstaged node takes among those of its staged neighbours (least `lo`,
