@@ -1,5 +1,5 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
-//! [--reference FILE] [--subdivide K] [--refine K] [--settings JSON]
+//! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
 //! [--velocity-peaks true|false]`: solves every task of the suite with
 //! default settings, verifies each independently and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
@@ -8,7 +8,9 @@
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
 //! task and then again on a grid K times finer from that solution (`ArmTask::refined`,
-//! `armature_arm::set_refined_guess`; iterations and time count both stages), `--settings JSON`
+//! `armature_arm::set_refined_guess`; iterations and time count both stages), `--starts K`
+//! solves each task's first stage from K timings of its guess in parallel and keeps the best
+//! (`ArmPlan::solve_multi_start`; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
 //! points or not (each task's dynamics model chooses by default).
@@ -23,7 +25,7 @@ fn main() {
     let value = |flag: &str| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1));
     let filter = value("--filter").cloned();
     let study = study::Study::from_args(
-        (value("--subdivide"), value("--refine")),
+        (value("--subdivide"), value("--refine"), value("--starts")),
         value("--settings"),
         value("--velocity-peaks"),
     )

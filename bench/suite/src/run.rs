@@ -162,8 +162,11 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
 /// is the outcome).
 fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>), String> {
     let text = |e: &dyn std::fmt::Display| e.to_string();
-    let mut coarse = t.task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
-    let coarse = coarse.solve().map_err(|e| text(&e))?;
+    let plan = t.task.plan().map_err(|e| text(&e))?;
+    let coarse = match t.task.initialization.starts {
+        0 | 1 => plan.compile().and_then(|mut c| c.solve()).map_err(|e| text(&e))?,
+        starts => plan.solve_multi_start(starts).map_err(|e| text(&e))?.best,
+    };
     if t.refine <= 1 || coarse.status != PtrStatus::Converged {
         return Ok((coarse, None));
     }

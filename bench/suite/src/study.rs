@@ -18,17 +18,19 @@ pub struct Study {
     /// Mesh refinement: every task solved, then solved again on a grid this many times
     /// finer from that solution (1: once).
     pub refine: usize,
+    /// Starts of every task's first solve (`Initialization::starts`; 1: the guess alone).
+    pub starts: usize,
 }
 
 impl Study {
-    /// From the command line's `--subdivide K`, `--refine K`, `--settings JSON` and
-    /// `--velocity-peaks true|false`.
+    /// From the command line's `--subdivide K`, `--refine K`, `--starts K`, `--settings JSON`
+    /// and `--velocity-peaks true|false`.
     ///
     /// # Errors
-    /// A subdivision or refinement that is not a whole number from 1 to 16, settings that
+    /// A subdivision, refinement or start count that is not a whole number from 1 to 16, settings that
     /// are not a JSON object, or velocity peaks that are neither `true` nor `false`.
     pub fn from_args(
-        (subdivide, refine): (Option<&String>, Option<&String>),
+        (subdivide, refine, starts): (Option<&String>, Option<&String>, Option<&String>),
         settings: Option<&String>,
         velocity_peaks: Option<&String>,
     ) -> Result<Self, String> {
@@ -41,6 +43,7 @@ impl Study {
         };
         let subdivide = factor("--subdivide", subdivide)?;
         let refine = factor("--refine", refine)?;
+        let starts = factor("--starts", starts)?;
         let settings = match settings {
             None => None,
             Some(s) => match serde_json::from_str::<Value>(s) {
@@ -55,7 +58,7 @@ impl Study {
             Some("false") => Some(false),
             Some(v) => return Err(format!("--velocity-peaks {v}: need true or false")),
         };
-        Ok(Study { subdivide, settings, velocity_peaks, refine })
+        Ok(Study { subdivide, settings, velocity_peaks, refine, starts })
     }
 
     /// The task with the study's changes.
@@ -68,6 +71,7 @@ impl Study {
             t.task = t.task.subdivided(self.subdivide);
         }
         t.refine = self.refine;
+        t.task.initialization.starts = self.starts;
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
         }
@@ -104,7 +108,7 @@ mod tests {
         let task = crate::generate::suite().into_iter().next().expect("a task");
         let nodes = task.task.nodes;
         let study = Study::from_args(
-            (Some(&"2".into()), Some(&"3".into())),
+            (Some(&"2".into()), Some(&"3".into()), Some(&"3".into())),
             Some(&r#"{"quasi_newton": true, "discretization": {"substeps": 7}}"#.into()),
             Some(&"false".into()),
         )
@@ -112,19 +116,21 @@ mod tests {
         let t = study.apply(task.clone()).unwrap();
         assert_eq!(t.task.nodes, 2 * (nodes - 1) + 1);
         assert_eq!((t.refine, task.refine), (3, 1));
+        assert_eq!((t.task.initialization.starts, task.task.initialization.starts), (3, 1));
         assert!(!t.task.velocity_limit_peaks && task.task.velocity_limit_peaks);
-        let own = Study::from_args((None, None), None, None).unwrap();
+        let own = Study::from_args((None, None, None), None, None).unwrap();
         assert!(own.apply(task.clone()).unwrap().task.velocity_limit_peaks);
         assert!(t.task.settings.quasi_newton);
         assert_eq!(t.task.settings.discretization.substeps, 7);
         // Untouched fields keep the task's value.
         assert_eq!(t.task.settings.max_iterations, task.task.settings.max_iterations);
-        let bad =
-            Study::from_args((None, None), Some(&r#"{"no_such_key": 1}"#.into()), None).unwrap();
+        let bad = Study::from_args((None, None, None), Some(&r#"{"no_such_key": 1}"#.into()), None)
+            .unwrap();
         assert!(bad.apply(task.clone()).unwrap_err().contains("no_such_key"));
-        assert!(Study::from_args((Some(&"0".into()), None), None, None).is_err());
-        assert!(Study::from_args((None, Some(&"17".into())), None, None).is_err());
-        assert!(Study::from_args((None, None), Some(&"[1]".into()), None).is_err());
-        assert!(Study::from_args((None, None), None, Some(&"yes".into())).is_err());
+        assert!(Study::from_args((Some(&"0".into()), None, None), None, None).is_err());
+        assert!(Study::from_args((None, Some(&"17".into()), None), None, None).is_err());
+        assert!(Study::from_args((None, None, Some(&"0".into())), None, None).is_err());
+        assert!(Study::from_args((None, None, None), Some(&"[1]".into()), None).is_err());
+        assert!(Study::from_args((None, None, None), None, Some(&"yes".into())).is_err());
     }
 }

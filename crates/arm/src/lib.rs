@@ -8,11 +8,16 @@ mod feasibility;
 pub mod fixtures;
 mod formulation;
 mod guess;
+mod multi_start;
 mod plan;
 mod refine;
 mod task;
 
 pub use error::{ArmError, TaskItem};
+pub use multi_start::{
+    MultiStart, StartOutcome, StartSummary, best_start, scale_timing, solve_starts,
+    start_time_scale, summarize,
+};
 pub use plan::{ArmPlan, waypoint_parameter};
 pub use refine::{join_stages, set_refined_guess};
 pub use task::{

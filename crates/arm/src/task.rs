@@ -128,11 +128,15 @@ pub struct Initialization {
     /// Random restarts of a node whose IK fails; for [`Mode::Branches`], the random
     /// configurations solved from at each waypoint.
     pub restarts: usize,
+    /// Starts of the solve: the guess's timing scaled by
+    /// [`start_time_scale`](crate::start_time_scale) for each, solved in parallel, the best
+    /// kept ([`ArmPlan::solve_multi_start`](crate::ArmPlan::solve_multi_start)). Default 1.
+    pub starts: usize,
 }
 
 impl Default for Initialization {
     fn default() -> Self {
-        Initialization { mode: Mode::Branches, restarts: 8 }
+        Initialization { mode: Mode::Branches, restarts: 8, starts: 1 }
     }
 }
 

@@ -22,3 +22,11 @@ mod mesh_refinement;
 fn a_refined_grid_reaches_a_faster_motion() {
     mesh_refinement::main();
 }
+
+#[path = "../examples/multi_start.rs"]
+mod multi_start;
+
+#[test]
+fn several_starts_keep_the_fastest_converged_solution() {
+    multi_start::main();
+}

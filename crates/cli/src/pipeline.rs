@@ -223,7 +223,10 @@ fn locate(task: &TaskFile, src: Source<'_>, e: &ArmError) -> LocatedError {
     src.error_at(at, e.message.clone())
 }
 
-/// `[initialization]`: the IK mode and restarts.
+/// Most starts of a solve (`[initialization] starts`).
+pub const MAX_STARTS: usize = 16;
+
+/// `[initialization]`: the IK mode, restarts and starts.
 fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, LocatedError> {
     let mode = match task.initialization.ik.get_ref().as_str() {
         "sequential" => Mode::Sequential,
@@ -241,7 +244,12 @@ fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, Lo
         let max = armature_ik::MAX_RESTARTS;
         return Err(src.error(restarts, format!("restarts {}: at most {max}", restarts.get_ref())));
     }
-    Ok(Initialization { mode, restarts: *restarts.get_ref() })
+    let starts = &task.initialization.starts;
+    if !(1..=MAX_STARTS).contains(starts.get_ref()) {
+        let message = format!("starts {}: give 1 to {MAX_STARTS}", starts.get_ref());
+        return Err(src.error(starts, message));
+    }
+    Ok(Initialization { mode, restarts: *restarts.get_ref(), starts: *starts.get_ref() })
 }
 
 /// `[robot]`'s velocity and torque limits (the robot's own where not given).
@@ -536,7 +544,43 @@ fn collision(
     })
 }
 
+/// What the starts of a solve differ in: the problem, its guess's timing and the settings
+/// (a copy of a [`Plan`]'s, to compile the other starts beside the first).
+#[derive(Debug, Clone)]
+pub struct Timing {
+    problem: Problem,
+    dilation_guess: Vec<f64>,
+    settings: armature_scvx::PtrSettings,
+}
+
+impl Timing {
+    /// The problem compiled with its guess's timing scaled by `scale`
+    /// ([`armature_arm::scale_timing`]).
+    ///
+    /// # Errors
+    /// The problem layer's (a bug rather than bad input: the plan was checked).
+    pub fn compile_scaled(
+        &self,
+        scale: f64,
+    ) -> Result<CompiledProblem, armature_scvx::ProblemError> {
+        let (mut problem, mut dilation) = (self.problem.clone(), self.dilation_guess.clone());
+        armature_arm::scale_timing(&mut problem.time, &mut dilation, scale);
+        let mut c = problem.compile(self.settings.clone())?;
+        c.set_dilation_guess(&dilation)?;
+        Ok(c)
+    }
+}
+
 impl Plan {
+    /// A copy of what the starts of a solve differ in.
+    pub fn timing(&self) -> Timing {
+        Timing {
+            problem: self.problem.clone(),
+            dilation_guess: self.dilation_guess.clone(),
+            settings: self.settings.clone(),
+        }
+    }
+
     /// Compiles the problem and sets the guess.
     ///
     /// # Errors

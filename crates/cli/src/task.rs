@@ -51,6 +51,8 @@
 //! ik = "branches"                # least joint travel over IK branches (default), or
 //!                                # "sequential" / "parallel" node by node
 //! restarts = 8                   # random configurations solved from at each waypoint
+//! starts = 1                     # solves from the guess's timing scaled by 1, 0.7, 1.4, …
+//!                                # in parallel, the best kept
 //!
 //! [settings]                     # armature_scvx::PtrSettings, every field optional
 //! max_iterations = 200
@@ -437,12 +439,21 @@ pub struct InitSpec {
     #[serde(default = "eight")]
     #[schemars(with = "usize")]
     pub restarts: Spanned<usize>,
+    /// Starts of the solve, 1 to 16: the guess's timing scaled by 1, 0.7, 1.4, 0.49, …,
+    /// solved in parallel, the best converged solution kept. Default 1.
+    #[serde(default = "one")]
+    #[schemars(with = "usize")]
+    pub starts: Spanned<usize>,
 }
 
 impl Default for InitSpec {
     fn default() -> Self {
-        InitSpec { ik: branches(), restarts: eight() }
+        InitSpec { ik: branches(), restarts: eight(), starts: one() }
     }
+}
+
+fn one() -> Spanned<usize> {
+    Spanned::new(0..0, 1)
 }
 
 fn branches() -> Spanned<String> {

@@ -402,6 +402,43 @@ fn ik_restarts_above_their_cap_are_located() {
     assert!(!out.exists());
 }
 
+/// `[initialization] starts = 2`: the guess's timing × 1 and × 0.7 solved side by side, each
+/// start reported, the fastest converged one written; a start count out of 1..=16 is an
+/// error at its value.
+#[test]
+fn several_starts_are_reported_and_the_fastest_is_written() {
+    let text = format!("{TASK}\n[initialization]\nstarts = 2\n");
+    let path = temp_file("starts", "task.toml", &text);
+    let out = path.with_file_name("out.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let starts: Vec<&str> = stderr.lines().filter(|l| l.starts_with("start ")).collect();
+    assert_eq!(starts.len(), 2, "{stderr}");
+    assert!(starts[0].starts_with("start 1 (guess timing × 1.00): converged, T = "), "{stderr}");
+    assert!(starts[1].starts_with("start 2 (guess timing × 0.70): "), "{stderr}");
+    assert_eq!(starts.iter().filter(|l| l.ends_with("(kept)")).count(), 1, "{stderr}");
+    let t_of = |line: &str| -> f64 {
+        let t = line.split("T = ").nth(1).and_then(|r| r.split(' ').next()).unwrap();
+        t.parse().unwrap()
+    };
+    let kept = starts.iter().find(|l| l.ends_with("(kept)")).unwrap();
+    let converged = starts.iter().filter(|l| l.contains("): converged, "));
+    assert!(converged.clone().all(|l| t_of(kept) <= t_of(l)), "{stderr}");
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let written = r["final_time"].as_f64().unwrap();
+    assert!((written - t_of(kept)).abs() < 1e-4, "{written} vs {kept}");
+    for bad in ["0", "17"] {
+        let text = format!("{TASK}\n[initialization]\nstarts = {bad}\n");
+        let line = text.lines().count();
+        let path = temp_file(&format!("starts-{bad}"), "task.toml", &text);
+        let (code, _, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+        assert_eq!(code, 2, "{stderr}");
+        let at = format!("task.toml:{line}:10: starts {bad}: give 1 to 16");
+        assert!(stderr.contains(&at), "{stderr}");
+    }
+}
+
 /// The task format documented at the top of `src/task.rs` is a task that solves: its TOML
 /// block, taken from the source, parses and converges with the initialization it documents.
 #[test]

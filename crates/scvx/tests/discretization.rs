@@ -534,19 +534,54 @@ fn segment_jacobian(
     j
 }
 
+/// A nonlinear system with a gated row on 4 nodes, its inputs and a weight `y` on a segment's
+/// end: the segment Hessians' test case.
+struct SegmentCase {
+    d: Dynamics,
+    x: Vec<f64>,
+    u: Vec<f64>,
+    s: Vec<f64>,
+    y: [f64; 3],
+}
+
+fn segment_case() -> SegmentCase {
+    let (n, mu, nodes) = (3, 2, 4);
+    SegmentCase {
+        d: nonlinear().gate(2, 1, 3).unwrap(),
+        x: (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect(),
+        u: (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect(),
+        s: vec![1.5, 1.2, 2.0, 2.0],
+        y: [0.7, -1.3, 0.4],
+    }
+}
+
+/// The inputs with entry `col` of segment `seg`'s `z = [x_k | u_k | s_k | u_{k+1}]` moved by
+/// `by` (n states; the controls' count follows from `u`).
+fn shift_segment_input(
+    (x, u, s): (&[f64], &[f64], &[f64]),
+    (n, seg, col): (usize, usize, usize),
+    by: f64,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mu = u.len() / s.len();
+    let (mut xs, mut us, mut ss) = (x.to_vec(), u.to_vec(), s.to_vec());
+    match col {
+        c if c < n => xs[seg * n + c] += by,
+        c if c < n + mu => us[seg * mu + c - n] += by,
+        c if c == n + mu => ss[seg] += by,
+        c => us[(seg + 1) * mu + c - n - mu - 1] += by,
+    }
+    (xs, us, ss)
+}
+
 /// The segment Hessian `yᵀ∂²x_prop/∂z²` (second-order adjoint on the grid) against central
 /// differences of the map's exact Jacobians, on every segment of a nonlinear system with a
 /// gated row; it converges to them as the grid refines (the RK4 map and the exact flow
 /// differ by O(h⁴)).
 #[test]
 fn segment_hessian_matches_differences_of_the_jacobians() {
-    let d = nonlinear().gate(2, 1, 3).unwrap();
-    let (n, mu, nodes) = (3, 2, 4);
-    let nz = n + 2 * mu + 1;
-    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
-    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
-    let s = vec![1.5, 1.2, 2.0, 2.0];
-    let y = [0.7, -1.3, 0.4];
+    let SegmentCase { d, x, u, s, y } = segment_case();
+    let (n, nodes) = (3, 4);
+    let nz = n + 2 * d.n_u() + 1;
     let error_at = |sub: usize, seg: usize| {
         let settings = substeps(sub);
         let mut out = d.output_with_grid(nodes, sub);
@@ -558,13 +593,7 @@ fn segment_hessian_matches_differences_of_the_jacobians() {
         let (mut worst, mut scale) = (0.0f64, 0.0f64);
         for c in 0..nz {
             let shifted = |sign: f64| {
-                let (mut xs, mut us, mut ss) = (x.clone(), u.clone(), s.clone());
-                match c {
-                    c if c < n => xs[seg * n + c] += sign * eps,
-                    c if c < n + mu => us[seg * mu + c - n] += sign * eps,
-                    c if c == n + mu => ss[seg] += sign * eps,
-                    c => us[(seg + 1) * mu + c - n - mu - 1] += sign * eps,
-                }
+                let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, c), sign * eps);
                 segment_jacobian(&d, &xs, &us, &ss, seg, sub)
             };
             let (jp, jm) = (shifted(1.0), shifted(-1.0));
@@ -585,6 +614,117 @@ fn segment_hessian_matches_differences_of_the_jacobians() {
         assert!(fine < 2e-6, "segment {seg}: relative error {fine:e} with 40 substeps");
         assert!(fine < coarse / 100.0, "segment {seg}: {coarse:e} → {fine:e} does not converge");
     }
+}
+
+/// `Σ_i c_iᵀ ∂x(τ_i)/∂z` over segment `seg`'s grid points (weights `c`, `points × n`): the
+/// gradient whose differences give the along-the-grid Hessian.
+fn grid_gradient(
+    d: &Dynamics,
+    (x, u, s): (&[f64], &[f64], &[f64]),
+    (seg, sub): (usize, usize),
+    c: &[f64],
+) -> Vec<f64> {
+    let (n, mu) = (d.n_x(), d.n_u());
+    let (m, nz, stride) = (mu + 1, n + 2 * mu + 1, d.grid_stride());
+    let mut out = d.output_with_grid(s.len(), sub);
+    d.discretize(x, u, s, &substeps(sub), &mut d.workspace(), &mut out).unwrap();
+    let mut g = vec![0.0; nz];
+    for i in 0..=sub {
+        let at = &out.grid[(seg * (sub + 1) + i) * stride..][..stride];
+        let (phi, bm, bp) = (&at[n..], &at[n + n * n..], &at[n + n * n + n * m..]);
+        for r in 0..n {
+            let w = c[i * n + r];
+            for col in 0..n {
+                g[col] += w * phi[r * n + col];
+            }
+            for col in 0..m {
+                g[n + col] += w * bm[r * m + col];
+            }
+            for col in 0..mu {
+                g[n + m + col] += w * bp[r * m + col];
+            }
+        }
+    }
+    g
+}
+
+/// Weights on the grid points between the nodes (and on the segment's end, as `y`): the
+/// Hessian matches central differences of the grid's exact sensitivities, on every segment
+/// of a nonlinear system with a gated row, and converges to them as the grid refines.
+#[test]
+fn segment_hessian_along_the_grid_matches_differences_of_its_sensitivities() {
+    let SegmentCase { d, x, u, s, y } = segment_case();
+    let (n, nodes) = (3, 4);
+    let nz = n + 2 * d.n_u() + 1;
+    let error_at = |sub: usize, seg: usize| {
+        // A smooth weight profile over the segment, the same on every grid.
+        let c: Vec<f64> = (0..=sub)
+            .flat_map(|i| {
+                let t = i as f64 / sub as f64;
+                [(1.0 + 2.0 * t).sin(), 0.5 - t * t, (3.0 * t).cos() * 0.3]
+            })
+            .map(|w| w / sub as f64)
+            .collect();
+        let mut with_y = c.clone();
+        for r in 0..n {
+            with_y[sub * n + r] += y[r];
+        }
+        let mut out = d.output_with_grid(nodes, sub);
+        d.discretize(&x, &u, &s, &substeps(sub), &mut d.workspace(), &mut out).unwrap();
+        let mut h = vec![0.0; nz * nz];
+        let mut ws = d.segment_hessian_workspace();
+        d.segment_hessian_along(&out, seg, &u, s[seg], &y, &c, &mut ws, &mut h).unwrap();
+        let eps = 1e-5;
+        let (mut worst, mut scale) = (0.0f64, 0.0f64);
+        for col in 0..nz {
+            let shifted = |sign: f64| {
+                let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, col), sign * eps);
+                grid_gradient(&d, (&xs, &us, &ss), (seg, sub), &with_y)
+            };
+            let (gp, gm) = (shifted(1.0), shifted(-1.0));
+            for r in 0..nz {
+                let fd = (gp[r] - gm[r]) / (2.0 * eps);
+                worst = worst.max((h[col * nz + r] - fd).abs());
+                scale = scale.max(fd.abs());
+                assert!(
+                    (h[col * nz + r] - h[r * nz + col]).abs()
+                        <= 1e-12 * (1.0 + h[col * nz + r].abs())
+                );
+            }
+        }
+        worst / scale
+    };
+    for seg in 0..nodes - 1 {
+        let (coarse, mid, fine) = (error_at(4, seg), error_at(7, seg), error_at(40, seg));
+        assert!(fine < 2e-6, "segment {seg}: relative error {fine:e} with 40 substeps");
+        assert!(mid < coarse, "segment {seg}: {coarse:e} (4) → {mid:e} (7, odd)");
+        assert!(fine < coarse / 1000.0, "segment {seg}: {coarse:e} → {fine:e} does not converge");
+    }
+}
+
+/// The weights' layout is checked: a `points` slice that is neither empty nor one weight
+/// vector per grid point is an error.
+#[test]
+fn segment_hessian_along_refuses_a_wrong_layout() {
+    let d = nonlinear();
+    let (x, u, s) = (vec![0.1; 9], vec![0.2; 6], vec![1.0; 3]);
+    let mut ws = d.segment_hessian_workspace();
+    let mut h = vec![0.0; 64];
+    let mut grid = d.output_with_grid(3, 4);
+    d.discretize(&x, &u, &s, &substeps(4), &mut d.workspace(), &mut grid).unwrap();
+    let y = [1.0; 3];
+    for bad in [3, 14, 16] {
+        let points = vec![0.5; bad];
+        let e = d.segment_hessian_along(&grid, 0, &u, 1.0, &y, &points, &mut ws, &mut h);
+        assert!(e.unwrap_err().to_string().contains(&format!("points of {bad} (need 0 or 15)")));
+    }
+    // Weights only on the end point are `y` itself.
+    let (mut end_only, mut as_y) = (vec![0.0; 64], vec![0.0; 64]);
+    let mut points = vec![0.0; 15];
+    points[12..].copy_from_slice(&y);
+    d.segment_hessian_along(&grid, 1, &u, 1.0, &[0.0; 3], &points, &mut ws, &mut end_only).unwrap();
+    d.segment_hessian(&grid, 1, &u, 1.0, &y, &mut ws, &mut as_y).unwrap();
+    assert_eq!(end_only, as_y);
 }
 
 /// Bad calls are errors, not panics: no grid, a segment out of range, a wrong `y`.

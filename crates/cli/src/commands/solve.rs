@@ -78,6 +78,8 @@ pub struct Loaded {
     /// With `[nodes] refine = K > 1`: K, and the task on the grid K times finer, planned and
     /// compiled, solved from the first stage's solution.
     pub refined: Option<(usize, crate::pipeline::Plan, armature_scvx::CompiledProblem)>,
+    /// `[initialization] starts` (1 for a problem file).
+    pub starts: usize,
 }
 
 /// Parses, checks and compiles a task file or a problem file (recognised by its
@@ -94,12 +96,14 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             .compile(settings)
             .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
-        return Ok(Loaded { plan: None, compiled, keypoints: Vec::new(), inputs, refined: None });
+        let keypoints = Vec::new();
+        return Ok(Loaded { plan: None, compiled, keypoints, inputs, refined: None, starts: 1 });
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
     let factor = refinement(&task, src).map_err(CliError::bad_input)?;
     let fine = (factor > 1).then(|| arm.refined(factor));
+    let starts = arm.initialization.starts;
     let plan = plan_arm(&task, src, arm).map_err(CliError::bad_input)?;
     let compile = |plan: &crate::pipeline::Plan| {
         plan.compile().map_err(|e| CliError::bad_input(locate(&task, src, &e)))
@@ -116,7 +120,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
     let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
-    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined })
+    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined, starts })
 }
 
 /// A problem-layer error of a planned task (the task's checks let few through): at the
@@ -419,6 +423,56 @@ pub fn run_task(
     outcome(&solution)
 }
 
+/// The observed solve from the task's guess, and with `[initialization] starts = K > 1`
+/// the other K − 1 starts beside it ([`armature_arm::solve_starts`], unobserved), the best
+/// kept ([`armature_arm::best_start`]). When another start wins, the iterates drawn are the
+/// guess alone (the kept start's were not recorded).
+fn solve_starts(
+    loaded: &mut Loaded,
+    streamer: &mut Option<Streamer>,
+    (src, quiet): (Source<'_>, bool),
+    stage: Stage,
+) -> Result<(Solution, Vec<Iterate>), CliError> {
+    let others = loaded.starts.saturating_sub(1);
+    let Some(timing) = loaded.plan.as_ref().filter(|_| others > 0).map(|p| p.timing()) else {
+        return solve_observed(loaded, streamer, (src, quiet), stage);
+    };
+    let (observed, rest) = std::thread::scope(|scope| {
+        let rest =
+            scope.spawn(|| armature_arm::solve_starts(1, others, |s| timing.compile_scaled(s)));
+        let observed = solve_observed(loaded, streamer, (src, quiet), stage);
+        (observed, rest.join())
+    });
+    let (first, mut iterates) = observed?;
+    let (ends, summaries) = rest.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+    let summaries: Vec<_> =
+        std::iter::once(armature_arm::summarize(1.0, Ok(&first))).chain(summaries).collect();
+    let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
+    let chosen = armature_arm::best_start(&ends).unwrap_or(0);
+    for (i, s) in summaries.iter().enumerate() {
+        let outcome = match &s.outcome {
+            armature_arm::StartOutcome::Solved(status) => status.to_string(),
+            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
+        };
+        let kept = if i == chosen { " (kept)" } else { "" };
+        say(
+            quiet,
+            &format!(
+                "start {} (guess timing × {:.2}): {outcome}, T = {:.4} s, {} iterations{kept}",
+                i + 1,
+                s.time_scale,
+                s.final_time,
+                s.iterations
+            ),
+        );
+    }
+    if chosen != 0 {
+        iterates.truncate(1);
+    }
+    let best = ends.swap_remove(chosen).map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
+    Ok((best, iterates))
+}
+
 /// Solves the task, and with a refinement then the refined task from that solution (when
 /// the first stage converged), which takes the place of the first in `loaded`.
 fn solve_stages(
@@ -428,7 +482,7 @@ fn solve_stages(
 ) -> Result<(Solution, Vec<Iterate>), CliError> {
     let refined = loaded.refined.take();
     let first = Stage { offset: 0, last: refined.is_none() };
-    let (coarse, mut iterates) = solve_observed(loaded, streamer, (src, quiet), first)?;
+    let (coarse, mut iterates) = solve_starts(loaded, streamer, (src, quiet), first)?;
     let Some((factor, plan, mut compiled)) = refined else {
         return Ok((coarse, iterates));
     };

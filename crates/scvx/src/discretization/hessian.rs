@@ -19,6 +19,14 @@
 //! Hessian differs from it by the integration error, O(h⁴) (the tests check the agreement
 //! with finite differences of the map's Jacobians and its convergence as the grid refines).
 //! Gated rows (a CTCS integrand outside its interval) have `f_r = 0` on the segment.
+//!
+//! A weight `c_i` on an intermediate grid state, `c_iᵀx(τ_i)`, has the same Hessian over
+//! `[0, τ_i]` with `λ_i(τ)ᵀ = c_iᵀΦ(τ_i)Φ(τ)⁻¹`
+//! ([`segment_hessian_along`](Dynamics::segment_hessian_along)). `G` is linear in `λ`, so
+//! every weighted point shares one evaluation per grid point: at point `j` the adjoint
+//! solves `Φ(τ_j)ᵀλ_j = Σ_i q_j⁽ⁱ⁾ Φ(τ_i)ᵀc_i`, with `q⁽ⁱ⁾` the quadrature weights of
+//! `[0, τ_i]` (Simpson's composite rule, closed by Simpson's 3/8 rule on an odd number of
+//! steps, the trapezoid on one step).
 
 use armature_symbolic::HessianWorkspace;
 
@@ -32,8 +40,12 @@ pub struct SegmentHessianWorkspace {
     values: Vec<f64>,
     jac: Vec<f64>,
     hess: Vec<f64>,
-    /// `Φ(Δτ)ᵀy`, the adjoint and the gated weights.
+    /// `Σ_i q_j⁽ⁱ⁾Φ(τ_i)ᵀc_i` at one grid point, the adjoint and the gated weights.
     mu: Vec<f64>,
+    /// Per grid point `i`: `Φ(τ_i)ᵀc_i` (grown to the grid on first use).
+    nu: Vec<f64>,
+    /// Per grid point: whether it carries a weight.
+    weighted: Vec<bool>,
     lam: Vec<f64>,
     weights: Vec<f64>,
     /// LU scratch (`n×n`).
@@ -57,6 +69,8 @@ impl Dynamics {
             jac: vec![0.0; self.f.jacobian_pattern().nnz()],
             hess: vec![0.0; self.f.hessian_pattern().nnz()],
             mu: vec![0.0; n],
+            nu: Vec::new(),
+            weighted: Vec::new(),
             lam: vec![0.0; n],
             weights: vec![0.0; n],
             lu: vec![0.0; n * n],
@@ -107,19 +121,73 @@ impl Dynamics {
         ws: &mut SegmentHessianWorkspace,
         out: &mut [f64],
     ) -> Result<(), DiscretizationError> {
+        self.segment_hessian_along(d, k, u, s_k, y, &[], ws, out)
+    }
+
+    /// `yᵀ ∂²x_prop/∂z² + Σ_i c_iᵀ ∂²x(τ_i)/∂z²`: [`segment_hessian`](Self::segment_hessian)
+    /// with weights `c_i` (`points`, `grid_points × n` row-major, or empty for none) on the
+    /// states at the segment's grid points `τ_i` too — the curvature of constraints imposed
+    /// between the nodes through the flow. The weight on the first point (`x_k` itself,
+    /// linear in `z`) adds nothing; one on the last adds to `y`. See the module's math.
+    /// Allocation-free after its first call with a grid of this size.
+    ///
+    /// # Errors
+    /// As [`segment_hessian`](Self::segment_hessian), and `points` of another length.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_scvx::{DiscretizationSettings, Dynamics};
+    /// use armature_symbolic::Expr;
+    ///
+    /// // p' = v, v' = a on one segment of 4 steps. A weight on the midpoint's position,
+    /// // p(½) = p_k + s·v_k/2 + s²(5a_k + a_{k+1})/48, curves it in s·v_k, s² and s·a.
+    /// let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    /// let d = Dynamics::new(&[p, v.clone()], &[a.clone()], &[v, a], &[true]).unwrap();
+    /// let (x, u, s) = ([0.0, 0.5, 0.0, 0.0], [0.3, -0.2], [2.0, 2.0]);
+    /// let mut out = d.output_with_grid(2, 4);
+    /// let mut settings = DiscretizationSettings::default();
+    /// settings.substeps = 4;
+    /// d.discretize(&x, &u, &s, &settings, &mut d.workspace(), &mut out).unwrap();
+    /// // z = [p_k, v_k, a_k, s_k, a_{k+1}]; weight 1 on p at the midpoint.
+    /// let mut points = [0.0; 10];
+    /// points[2 * 2] = 1.0;
+    /// let mut h = [0.0; 25];
+    /// let mut ws = d.segment_hessian_workspace();
+    /// d.segment_hessian_along(&out, 0, &u, s[0], &[0.0, 0.0], &points, &mut ws, &mut h)
+    ///     .unwrap();
+    /// // ∂²p(½)/∂s∂v_k = 1/2, ∂²/∂s² = (5a_k + a_{k+1})/24, ∂²/∂s∂a_k = 5s/24.
+    /// assert!((h[1 * 5 + 3] - 0.5).abs() < 1e-12);
+    /// assert!((h[3 * 5 + 3] - (5.0 * 0.3 - 0.2) / 24.0).abs() < 1e-12);
+    /// assert!((h[2 * 5 + 3] - 5.0 * 2.0 / 24.0).abs() < 1e-12);
+    /// ```
+    #[allow(clippy::too_many_arguments)]
+    pub fn segment_hessian_along(
+        &self,
+        d: &Discretization,
+        k: usize,
+        u: &[f64],
+        s_k: f64,
+        y: &[f64],
+        points: &[f64],
+        ws: &mut SegmentHessianWorkspace,
+        out: &mut [f64],
+    ) -> Result<(), DiscretizationError> {
         let (n, mu) = (self.n_x, self.n_u);
         let (nv, nz, pts) = (n + mu + 1, n + 2 * mu + 1, d.grid_points);
         if pts < 2
             || k >= d.segments
             || y.len() != n
+            || !(points.is_empty() || points.len() == pts * n)
             || out.len() != nz * nz
             || u.len() != (d.segments + 1) * mu
             || ws.w.len() != nv * nz
         {
             return Err(DiscretizationError::Size(format!(
-                "segment_hessian: segment {k} of {}, {pts} grid points (need ≥ 2), y of {} (need {n}), out of {} (need {}), u of {} (need {})",
+                "segment_hessian: segment {k} of {}, {pts} grid points (need ≥ 2), y of {} (need {n}), points of {} (need 0 or {}), out of {} (need {}), u of {} (need {})",
                 d.segments,
                 y.len(),
+                points.len(),
+                pts * n,
                 out.len(),
                 nz * nz,
                 u.len(),
@@ -129,16 +197,25 @@ impl Dynamics {
         out.fill(0.0);
         let stride = self.grid_stride();
         let block = |j: usize| &d.grid[(k * pts + j) * stride..][..stride];
-        // μ = Φ(Δτ)ᵀ y.
-        let phi_end = &block(pts - 1)[n..n + n * n];
-        for (c, m) in ws.mu.iter_mut().enumerate() {
-            *m = (0..n).map(|r| phi_end[r * n + c] * y[r]).sum();
-        }
-        let dtau = 1.0 / d.segments as f64;
+        self.point_adjoints(y, points, pts, |j| &block(j)[n..n + n * n], ws);
         let steps = pts - 1;
-        let hq = dtau / steps as f64;
+        let hq = 1.0 / (d.segments * steps) as f64;
         for j in 0..pts {
-            let q = quadrature_weight(j, steps) * hq;
+            // μ_j = h Σ_{i ≥ j} q_j⁽ⁱ⁾ ν_i.
+            ws.mu.fill(0.0);
+            let mut any = false;
+            for i in j.max(1)..pts {
+                if ws.weighted[i] {
+                    let q = quadrature_weight(j, i) * hq;
+                    for (m, nu) in ws.mu.iter_mut().zip(&ws.nu[i * n..(i + 1) * n]) {
+                        *m += q * nu;
+                    }
+                    any = true;
+                }
+            }
+            if !any {
+                continue;
+            }
             let beta = j as f64 / steps as f64;
             self.adjoint_at(block(j), ws);
             self.fill_w(block(j), beta, ws);
@@ -150,9 +227,38 @@ impl Dynamics {
                 k,
                 ws,
             )?;
-            accumulate(ws, nv, nz, q, out);
+            accumulate(ws, nv, nz, 1.0, out);
         }
         Ok(())
+    }
+
+    /// `ν_i = Φ(τ_i)ᵀc_i` per grid point (`y` added to the last point's weight) into
+    /// `ws.nu`, and which points carry a weight into `ws.weighted`.
+    fn point_adjoints<'a>(
+        &self,
+        y: &[f64],
+        points: &[f64],
+        pts: usize,
+        phi: impl Fn(usize) -> &'a [f64],
+        ws: &mut SegmentHessianWorkspace,
+    ) {
+        let n = self.n_x;
+        ws.nu.resize(pts * n, 0.0);
+        ws.weighted.resize(pts, false);
+        for i in 0..pts {
+            let c = |r: usize| {
+                let point = if points.is_empty() { 0.0 } else { points[i * n + r] };
+                if i == pts - 1 { point + y[r] } else { point }
+            };
+            ws.weighted[i] = i > 0 && (0..n).any(|r| c(r) != 0.0);
+            if !ws.weighted[i] {
+                continue;
+            }
+            let phi = phi(i);
+            for col in 0..n {
+                ws.nu[i * n + col] = (0..n).map(|r| phi[r * n + col] * c(r)).sum();
+            }
+        }
     }
 
     /// The adjoint at a grid point: solves `Φ(τ)ᵀλ = μ`.
@@ -230,10 +336,11 @@ impl Dynamics {
     }
 }
 
-/// Simpson's weights on an even number of steps, the trapezoid's otherwise (in units of
-/// the step).
-fn quadrature_weight(j: usize, steps: usize) -> f64 {
-    if steps.is_multiple_of(2) {
+/// The weight of grid point `j` in a quadrature of `[0, i]` steps (in units of the step):
+/// Simpson's composite rule on an even number of steps; on an odd number ≥ 3, Simpson's on
+/// the first `i − 3` and Simpson's 3/8 rule on the last three; the trapezoid on one step.
+fn quadrature_weight(j: usize, i: usize) -> f64 {
+    let simpson = |j: usize, steps: usize| {
         if j == 0 || j == steps {
             1.0 / 3.0
         } else if j % 2 == 1 {
@@ -241,10 +348,19 @@ fn quadrature_weight(j: usize, steps: usize) -> f64 {
         } else {
             2.0 / 3.0
         }
-    } else if j == 0 || j == steps {
-        0.5
-    } else {
-        1.0
+    };
+    match i {
+        _ if j > i => 0.0,
+        0 => 0.0,
+        1 => 0.5,
+        _ if i.is_multiple_of(2) => simpson(j, i),
+        _ if j + 3 < i => simpson(j, i - 3),
+        _ => {
+            // Simpson's 3/8 rule on the last three steps, joined to Simpson's before them.
+            let t = j + 3 - i;
+            let three_eighths = if t == 0 || t == 3 { 3.0 / 8.0 } else { 9.0 / 8.0 };
+            if t == 0 && i > 3 { simpson(j, i - 3) + three_eighths } else { three_eighths }
+        }
     }
 }
 
