@@ -440,7 +440,8 @@ pub struct InitSpec {
     #[schemars(with = "usize")]
     pub restarts: Spanned<usize>,
     /// Starts of the solve, 1 to 16: the guess's timing scaled by 1, 0.7, 1.4, 0.49, …,
-    /// solved in parallel, the best converged solution kept. Default 1.
+    /// solved in parallel, the best converged solution kept (each start is reported in a
+    /// line; the iteration table is the first start's). Default 1.
     #[serde(default = "one")]
     #[schemars(with = "usize")]
     pub starts: Spanned<usize>,

@@ -425,8 +425,10 @@ pub fn run_task(
 
 /// The observed solve from the task's guess, and with `[initialization] starts = K > 1`
 /// the other K − 1 starts beside it ([`armature_arm::solve_starts`], unobserved), the best
-/// kept ([`armature_arm::best_start`]). When another start wins, the iterates drawn are the
-/// guess alone (the kept start's were not recorded).
+/// kept ([`armature_arm::best_start`]) and every start reported in a line. The iteration
+/// table and the streamed iterates are the first start's; when another start wins, the
+/// iterates drawn are the guess alone (the kept start's were not recorded), and the result
+/// written, streamed at the end and refined is the kept start's.
 fn solve_starts(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
@@ -446,7 +448,9 @@ fn solve_starts(
     let (first, mut iterates) = observed?;
     let (ends, summaries) = rest.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
     let summaries: Vec<_> =
-        std::iter::once(armature_arm::summarize(1.0, Ok(&first))).chain(summaries).collect();
+        std::iter::once(armature_arm::summarize(armature_arm::start_time_scale(0), Ok(&first)))
+            .chain(summaries)
+            .collect();
     let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
     let chosen = armature_arm::best_start(&ends).unwrap_or(0);
     for (i, s) in summaries.iter().enumerate() {
