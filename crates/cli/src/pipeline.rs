@@ -565,10 +565,19 @@ impl Timing {
     ) -> Result<CompiledProblem, armature_scvx::ProblemError> {
         let (mut problem, mut dilation) = (self.problem.clone(), self.dilation_guess.clone());
         armature_arm::scale_timing(&mut problem.time, &mut dilation, scale);
-        let mut c = problem.compile(self.settings.clone())?;
-        c.set_dilation_guess(&dilation)?;
-        Ok(c)
+        compile_guess(&problem, &self.settings, &dilation)
     }
+}
+
+/// `problem` compiled with `settings` and the dilation guess set.
+fn compile_guess(
+    problem: &Problem,
+    settings: &armature_scvx::PtrSettings,
+    dilation_guess: &[f64],
+) -> Result<CompiledProblem, armature_scvx::ProblemError> {
+    let mut c = problem.compile(settings.clone())?;
+    c.set_dilation_guess(dilation_guess)?;
+    Ok(c)
 }
 
 impl Plan {
@@ -586,8 +595,6 @@ impl Plan {
     /// # Errors
     /// The problem layer's (a bug here rather than bad input: the plan was checked).
     pub fn compile(&self) -> Result<CompiledProblem, armature_scvx::ProblemError> {
-        let mut c = self.problem.compile(self.settings.clone())?;
-        c.set_dilation_guess(&self.dilation_guess)?;
-        Ok(c)
+        compile_guess(&self.problem, &self.settings, &self.dilation_guess)
     }
 }
