@@ -22,7 +22,8 @@ tolerance is solved again with the range tightened by 1.5x the excess (stored as
 that passes the dense check (1 ms, 1e-4) is kept (with --first: the first, guess first).
 T_ref is therefore the best local optimum found, not a certificate of global optimality.
 Not modelled: rigid-body dynamics (those tasks get no reference), self-collision (the suite's
-verification does not check it either).
+verification checks it on armature's solutions; leaving it out can only lower T_ref, so the
+ratios T / T_ref stay conservative).
 
 Usage:
     cargo run --release -p armature-suite -- --export /tmp/tasks.json

@@ -81,6 +81,13 @@ pub fn checks(t: &SuiteTask) -> Checks {
             .collect(),
         table: task.table_height,
         balls: t.balls.clone(),
+        link_pairs: task.collision.as_ref().map_or_else(Vec::new, |c| {
+            let links = |p: &armature_collision::Pair| match p.kind {
+                armature_collision::PairKind::Links(a, b) => Some((a, b)),
+                armature_collision::PairKind::LinkObstacle(..) => None,
+            };
+            c.model.pairs().iter().filter_map(links).collect()
+        }),
         margin: task.collision.as_ref().map_or(0.0, |c| c.margin),
     }
 }

@@ -145,6 +145,33 @@ pub fn point_segment(c: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f6
     (a + t * ab - c).norm()
 }
 
+/// Distance between segments `a0`–`a1` and `b0`–`b1`: the least of the distances at the
+/// interior critical point of `|a(s) − b(t)|²` (when the segments are not parallel and it lies
+/// in the unit square) and of the four endpoint-to-segment distances, which cover every
+/// boundary minimum. Degenerate (point) segments reduce to [`point_segment`].
+pub fn segment_segment(
+    a0: &Vector3<f64>,
+    a1: &Vector3<f64>,
+    b0: &Vector3<f64>,
+    b1: &Vector3<f64>,
+) -> f64 {
+    let mut best = point_segment(a0, b0, b1)
+        .min(point_segment(a1, b0, b1))
+        .min(point_segment(b0, a0, a1))
+        .min(point_segment(b1, a0, a1));
+    let (u, v, w) = (a1 - a0, b1 - b0, a0 - b0);
+    let (a, b, c, d, e) = (u.dot(&u), u.dot(&v), v.dot(&v), u.dot(&w), v.dot(&w));
+    let den = a * c - b * b;
+    if den > 1e-12 * a * c {
+        let s = (b * e - c * d) / den;
+        let t = (a * e - b * d) / den;
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            best = best.min((a0 + s * u - b0 - t * v).norm());
+        }
+    }
+    best
+}
+
 /// The arm's accelerations for the verification's re-integration.
 pub trait Accelerations {
     /// `q̈` at `(q, q̇, τ)`.
@@ -265,7 +292,11 @@ pub struct Checks {
     pub table: Option<f64>,
     /// Ball obstacles: (centre, radius).
     pub balls: Vec<(Vector3<f64>, f64)>,
-    /// The clearance the task keeps from every ball (m).
+    /// The non-adjacent capsule pairs (indices into [`Robot::capsules`]) that must keep the
+    /// clearance from each other (self-collision).
+    pub link_pairs: Vec<(usize, usize)>,
+    /// The clearance the task keeps from every ball and between the capsules of every
+    /// pair in `link_pairs` (m).
     pub margin: f64,
 }
 
@@ -308,11 +339,17 @@ pub fn check(c: &Checks, dense: &Dense, node_times: &[f64]) -> Worst {
                 });
             }
         }
-        for (ci, (a, b, rc)) in c.robot.capsules(q).iter().enumerate() {
+        let capsules = c.robot.capsules(q);
+        for (ci, (a, b, rc)) in capsules.iter().enumerate() {
             for (bc, rb) in &c.balls {
                 let clearance = point_segment(bc, a, b) - rc - rb - c.margin;
                 note(-clearance, &|| format!("capsule {ci} against the ball at t = {t:.3}"));
             }
+        }
+        for &(i, j) in &c.link_pairs {
+            let ((a0, a1, ra), (b0, b1, rb)) = (&capsules[i], &capsules[j]);
+            let clearance = segment_segment(a0, a1, b0, b1) - ra - rb - c.margin;
+            note(-clearance, &|| format!("capsules {i} and {j} at t = {t:.3}"));
         }
     }
     for &(node, w, tol) in &c.waypoints {

@@ -58,3 +58,101 @@ fn the_generator_is_deterministic_and_complete() {
         assert_eq!(x.task, y.task, "{}", x.name);
     }
 }
+
+#[test]
+fn segment_distance_agrees_with_dense_sampling() {
+    // Random segments (some nearly parallel, some crossing, some degenerate) against the least
+    // distance over a 400 × 400 grid of their points, which overestimates by at most the grid's
+    // spacing times the segments' lengths.
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+    let point = |rng: &mut rand_pcg::Pcg64Mcg| {
+        nalgebra::Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+    };
+    for case in 0..200 {
+        let (a0, b0) = (point(&mut rng), point(&mut rng));
+        let mut a1 = point(&mut rng);
+        let mut b1 = point(&mut rng);
+        match case % 4 {
+            1 => b1 = b0 + (a1 - a0) * 0.7 + nalgebra::Vector3::new(1e-9, 0.0, 0.0),
+            2 => a1 = a0,
+            3 => b1 = b0 + (a1 - a0).cross(&(b0 - a0)) * 0.5,
+            _ => {}
+        }
+        let d = verify::segment_segment(&a0, &a1, &b0, &b1);
+        let n = 400;
+        let sampled = (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i as f64 / n as f64, j as f64 / n as f64)))
+            .map(|(s, t)| ((a0 + s * (a1 - a0)) - (b0 + t * (b1 - b0))).norm())
+            .fold(f64::INFINITY, f64::min);
+        let slack = ((a1 - a0).norm() + (b1 - b0).norm()) / n as f64;
+        assert!(d <= sampled + 1e-12, "case {case}: {d} above the sampled {sampled}");
+        assert!(d >= sampled - slack, "case {case}: {d} below the sampled {sampled} − {slack}");
+    }
+    // Crossing segments touch; parallel ones at distance 1 are 1 apart.
+    let v = |x: f64, y: f64, z: f64| nalgebra::Vector3::new(x, y, z);
+    assert!(
+        verify::segment_segment(&v(-1., 0., 0.), &v(1., 0., 0.), &v(0., -1., 0.), &v(0., 1., 0.))
+            < 1e-15
+    );
+    let parallel =
+        verify::segment_segment(&v(0., 0., 0.), &v(1., 0., 0.), &v(0.5, 1., 0.), &v(2., 1., 0.));
+    assert!((parallel - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn self_collision_is_checked_on_the_tasks_own_link_pairs() {
+    // The arm7 ball tasks keep their non-adjacent capsules apart: the verification knows
+    // those pairs, its capsules have the model's radii, and a configuration folded onto
+    // itself is reported.
+    let tasks = suite();
+    let t = tasks.iter().find(|t| t.group == "arm7-ball").expect("a ball task");
+    let checks = armature_suite::run::checks(t);
+    assert_eq!(checks.link_pairs, vec![(0, 2), (0, 3), (1, 3)]);
+    let model = &t.task.collision.as_ref().unwrap().model;
+    let q0 = vec![0.0; 7];
+    for (link, (_, _, r)) in model.links().iter().zip(Robot::Arm7.capsules(&q0)) {
+        assert_eq!(link.radius, r, "{}", link.name);
+    }
+    for u in &tasks {
+        let c = armature_suite::run::checks(u);
+        let n = u.robot.capsules(&vec![0.0; u.task.chain.dof()]).len();
+        assert!(c.link_pairs.iter().all(|&(i, j)| i < n && j < n), "{}", u.name);
+    }
+    // Only the configuration's own constraints: no waypoints, ranges or table at t = 0.
+    let checks = verify::Checks {
+        waypoints: Vec::new(),
+        orientation: Vec::new(),
+        table: None,
+        balls: Vec::new(),
+        ..checks
+    };
+    let still = |q: Vec<f64>| verify::Dense {
+        t: vec![0.0],
+        q: vec![q],
+        qd: vec![vec![0.0; 7]],
+        tau: vec![vec![0.0; 7]],
+    };
+    let ok = verify::check(&checks, &still(vec![0.0, 0.3, 0.0, -1.2, 0.0, 0.9, 0.0]), &[0.0]);
+    assert!(!ok.what.starts_with("capsules"), "{ok:?}");
+    // A configuration within the joint limits whose wrist reaches back into the upper arm's
+    // or the base's capsule (found by a seeded search).
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+    let folded = (0..100_000)
+        .map(|_| {
+            (0..7).map(|j| rng.random_range(checks.q_lo[j]..checks.q_hi[j])).collect::<Vec<f64>>()
+        })
+        .find(|q| {
+            let c = Robot::Arm7.capsules(q);
+            [(0, 2), (0, 3), (1, 3)].iter().any(|&(i, j)| {
+                let d = verify::segment_segment(&c[i].0, &c[i].1, &c[j].0, &c[j].1);
+                d < c[i].2 + c[j].2 - 0.01
+            })
+        })
+        .expect("a folded configuration");
+    let bad = verify::check(&checks, &still(folded), &[0.0]);
+    assert!(bad.value > 0.0 && bad.what.starts_with("capsules"), "{bad:?}");
+}

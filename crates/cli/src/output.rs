@@ -55,6 +55,18 @@ pub struct ResultFile<'a> {
     /// The guess and the SCvx iterates (end effector at the nodes).
     #[serde(skip_serializing_if = "<[_]>::is_empty")]
     pub iterates: &'a [crate::view::Iterate],
+    /// With `[initialization] starts > 1`: how every start ended and which was kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub starts: Option<&'a StartsReport>,
+}
+
+/// The starts of a multi-start solve: which one the result is, and how each ended.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct StartsReport {
+    /// The kept start's index in `each` (0: the guess's own timing).
+    pub kept: usize,
+    /// Every start, in order (`final_time` is null for a start that ended in an error).
+    pub each: Vec<armature_arm::StartSummary>,
 }
 
 /// Stages what was asked for in `set`: the JSON result (`-` = standard output, written at

@@ -671,11 +671,7 @@ pub fn locate(
     src: Source<'_>,
     e: &armature_scvx::ProblemError,
 ) -> LocatedError {
-    use armature_scvx::ProblemError;
-    let what = match e {
-        ProblemError::Bad { what, .. } | ProblemError::Symbolic { what, .. } => what.as_str(),
-        _ => "",
-    };
+    let what = crate::settings::error_subject(e);
     let unquote = |s: &str| s.trim().trim_matches('"').to_string();
     let base = |s: &str| s.split('[').next().unwrap_or(s).to_string();
     let at = if let Some(name) = what.strip_prefix("dynamics of ") {

@@ -44,6 +44,16 @@ pub fn key_span(text: &str, path: &[&str]) -> Option<Range<usize>> {
     found
 }
 
+/// What a problem-layer error names (`time`, `state "p"`, a dotted setting path such as
+/// `discretization.substeps`): the `what` of a bad-input or symbolic error, else empty.
+pub fn error_subject(e: &armature_scvx::ProblemError) -> &str {
+    use armature_scvx::ProblemError;
+    match e {
+        ProblemError::Bad { what, .. } | ProblemError::Symbolic { what, .. } => what.as_str(),
+        _ => "",
+    }
+}
+
 /// Where `[settings]` gives the setting a problem-layer error names (`what`, a dotted
 /// field path such as `discretization.substeps`), if it does.
 pub fn setting_span(text: &str, what: &str) -> Option<usize> {

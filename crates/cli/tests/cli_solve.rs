@@ -146,6 +146,8 @@ fn the_rigid_body_demo_converges_within_every_limit() {
     let r = read_json(&out);
     assert_eq!(r["status"].as_str(), Some("converged"), "{stderr}");
     assert_eq!(code, 0, "{stderr}");
+    // One start: no multi-start report.
+    assert!(r.get("starts").is_none(), "{}", r["starts"]);
     let limit = std::f64::consts::PI; // the UR5e's own, 180°/s per joint
     let fastest = fastest_joint(&r);
     assert!(fastest <= limit + 1e-4, "fastest joint {fastest} rad/s");
@@ -428,6 +430,20 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let written = r["final_time"].as_f64().unwrap();
     assert!((written - t_of(kept)).abs() < 1e-4, "{written} vs {kept}");
+    // The JSON carries the same report: each start's scale, status and T, and the kept one.
+    let each = r["starts"]["each"].as_array().unwrap();
+    assert_eq!(each.len(), 2, "{}", r["starts"]);
+    let kept_at = starts.iter().position(|l| l.ends_with("(kept)")).unwrap();
+    assert_eq!(r["starts"]["kept"].as_u64(), Some(kept_at as u64));
+    for (line, start) in starts.iter().zip(each) {
+        let scale = start["time_scale"].as_f64().unwrap();
+        assert!(line.contains(&format!("× {scale:.2}")), "{line} vs {start}");
+        if let Some(t) = start["final_time"].as_f64() {
+            assert!((t - t_of(line)).abs() < 1e-4, "{line} vs {start}");
+        }
+    }
+    assert_eq!(each[0]["outcome"]["solved"].as_str(), Some("converged"), "{}", each[0]);
+    assert!((each[kept_at]["final_time"].as_f64().unwrap() - written).abs() < 1e-12);
     for bad in ["0", "17"] {
         let text = format!("{TASK}\n[initialization]\nstarts = {bad}\n");
         let line = text.lines().count();

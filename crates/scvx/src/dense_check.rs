@@ -1,7 +1,8 @@
 //! The honest report: every constraint the problem holds in continuous time, evaluated on
 //! the dense trajectory after the solve — the path constraints (`.ctcs()`, over their node
-//! ranges), the between-nodes constraints, and the state bounds when they are held between
-//! the nodes ([`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)). The PTR
+//! ranges), the between-nodes constraints, the state bounds when they are held between
+//! the nodes ([`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)), and how
+//! far the re-integrated states land from the node states ([`node_drift`]). The PTR
 //! loop sees these only through integrals and peak rows; a solve whose dense trajectory
 //! breaks one by more than [`PtrSettings::dense_tolerance`](crate::PtrSettings) is not
 //! reported converged.
@@ -99,6 +100,37 @@ impl DenseChecks {
         }
         Ok(out)
     }
+}
+
+/// How far the dense re-integration (from the initial state, through the controls and
+/// dilations alone) lands from the solution's own node states: for each of the first `rows`
+/// state rows (the problem's states, not the CTCS integrals), the largest
+/// `|x_dense(t_k) − x_k|` over the nodes k ≥ 1, named `re-integration of NAME`, at the node's
+/// instant (its segment: the one that ends there). The solver holds its dynamics on its own
+/// integration grid; this is that grid's error as the dense trajectory sees it — at the last
+/// node, how far from its final condition the re-integrated motion ends.
+pub(crate) fn node_drift(
+    dense: &DenseTrajectory,
+    x_nodes: &[f64],
+    (n, rows): (usize, usize),
+    name: impl Fn(usize) -> String,
+) -> Vec<Violation> {
+    // A segment's last sample is its end node (the steps divide each segment evenly).
+    let ends: Vec<(usize, usize)> = (1..dense.segment.len())
+        .filter(|&j| dense.segment.get(j + 1).is_none_or(|&next| next != dense.segment[j]))
+        .map(|j| (j, dense.segment[j] + 1))
+        .filter(|&(_, k)| (k + 1) * n <= x_nodes.len())
+        .collect();
+    (0..rows)
+        .map(|row| {
+            let drift = ends.iter().map(|&(j, k)| {
+                let d = (dense.x[j * n + row] - x_nodes[k * n + row]).abs();
+                (if d.is_nan() { f64::INFINITY } else { d }, j)
+            });
+            let name = format!("re-integration of {}", name(row));
+            violation(ConstraintRef::Dense { name }, worst(drift), dense)
+        })
+        .collect()
 }
 
 fn violation(

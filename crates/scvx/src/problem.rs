@@ -58,7 +58,7 @@ mod variables;
 pub use solution::{Solution, SolutionLayout, SolutionTimings};
 pub use variables::{Boundary, Control, State, Time};
 
-use crate::dense_check::{BoundCheck, DenseChecks, PathCheck};
+use crate::dense_check::{BoundCheck, DenseChecks, PathCheck, node_drift};
 use crate::{
     ConstraintRef, CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration,
     NodalConstraint, NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
@@ -486,7 +486,9 @@ impl CompiledProblem {
             None
         };
         let checked = fine.as_ref().unwrap_or(&dense);
-        let dense_violations = self.dense_checks.violations(checked, (n, m), &node_times)?;
+        let mut dense_violations = self.dense_checks.violations(checked, (n, m), &node_times)?;
+        let name = |row: usize| ocp.dynamics.state_name(row).unwrap_or("state").to_string();
+        dense_violations.extend(node_drift(checked, &r.x, (n, self.ctcs_row0), name));
         let worst_dense = dense_violations.iter().map(|v| v.value).fold(0.0, f64::max);
         let status =
             if r.status == PtrStatus::Converged && worst_dense > self.settings.dense_tolerance {

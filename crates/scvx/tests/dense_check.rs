@@ -102,3 +102,85 @@ fn the_tolerance_decides_and_a_loose_one_lets_the_same_solve_converge() {
         assert!(problem(6).compile(settings).is_err(), "{bad}");
     }
 }
+
+/// A pendulum swung from rest at 0 to rest at 1 rad in least time, `θ̈ = a − sin θ`,
+/// `|a| ≤ 2`, on `nodes` nodes and `substeps` RK4 steps per segment.
+fn pendulum(nodes: usize, substeps: usize) -> (Problem, PtrSettings) {
+    let th =
+        State::new("theta", 1).bounds(&[-5.0], &[5.0]).initial_value(&[0.0]).final_value(&[1.0]);
+    let w =
+        State::new("omega", 1).bounds(&[-10.0], &[10.0]).initial_value(&[0.0]).final_value(&[0.0]);
+    let a = Control::new("a", 1).bounds(&[-2.0], &[2.0]);
+    let problem = Problem {
+        dynamics: vec![w.expr(), a.expr() - th.expr().sin()],
+        states: vec![th, w],
+        controls: vec![a],
+        time: Time::Free { min: 0.1, max: 10.0, guess: 2.0, minimize: true },
+        ..Problem::new(nodes)
+    };
+    let mut settings = fine();
+    settings.discretization.substeps = substeps;
+    (problem, settings)
+}
+
+/// The pendulum's motion re-integrated here (RK4 at 0.1 ms through the first-order-hold
+/// control at the solution's nodes): `[θ, ω]` at each node's time.
+fn reintegrated(s: &Solution) -> Vec<[f64; 2]> {
+    let times: Vec<f64> = s.nodes["time"].iter().map(|r| r[0]).collect();
+    let a: Vec<f64> = s.nodes["a"].iter().map(|r| r[0]).collect();
+    let f = |x: [f64; 2], u: f64| [x[1], u - x[0].sin()];
+    let mut x = [0.0, 0.0];
+    let mut out = vec![x];
+    for k in 0..times.len() - 1 {
+        let steps = ((times[k + 1] - times[k]) / 1e-4).ceil() as usize;
+        let h = (times[k + 1] - times[k]) / steps as f64;
+        let u = |b: f64| a[k] + b * (a[k + 1] - a[k]);
+        for i in 0..steps {
+            let (b0, b1) = (i as f64 / steps as f64, (i + 1) as f64 / steps as f64);
+            let bh = 0.5 * (b0 + b1);
+            let add = |x: [f64; 2], k: [f64; 2], c: f64| [x[0] + c * k[0], x[1] + c * k[1]];
+            let k0 = f(x, u(b0));
+            let k1 = f(add(x, k0, 0.5 * h), u(bh));
+            let k2 = f(add(x, k1, 0.5 * h), u(bh));
+            let k3 = f(add(x, k2, h), u(b1));
+            x = [
+                x[0] + h / 6.0 * (k0[0] + 2.0 * k1[0] + 2.0 * k2[0] + k3[0]),
+                x[1] + h / 6.0 * (k0[1] + 2.0 * k1[1] + 2.0 * k2[1] + k3[1]),
+            ];
+        }
+        out.push(x);
+    }
+    out
+}
+
+/// The solver holds its dynamics on its own RK4 grid. With one step per long segment that
+/// grid is coarse: the motion re-integrated from the start through the controls alone does
+/// not end at rest at 1 rad, the report says how far (against a re-integration written
+/// here), and the status is not `converged`. With the default ten steps per segment the
+/// drift is far below the tolerance and the same task converges.
+#[test]
+fn a_dense_re_integration_that_leaves_the_nodes_is_reported() {
+    for (nodes, substeps) in [(4, 1), (11, 10)] {
+        let (problem, settings) = pendulum(nodes, substeps);
+        let s = problem.compile(settings).unwrap().solve().unwrap();
+        let mine = reintegrated(&s);
+        for (i, state) in ["theta", "omega"].iter().enumerate() {
+            let name = format!("re-integration of {state} (dense)");
+            let drift = s.violations.iter().find(|v| v.constraint == name.as_str()).unwrap();
+            let want =
+                (1..nodes).map(|k| (mine[k][i] - s.nodes[*state][k][0]).abs()).fold(0.0, f64::max);
+            assert!((drift.value - want).abs() < 1e-6 + 1e-3 * want, "{drift:?} vs {want}");
+        }
+        let worst = s.violations.iter().map(|v| v.value).fold(0.0, f64::max);
+        match (nodes, s.status) {
+            (4, PtrStatus::ViolatedBetweenNodes) => {
+                let v = s.max_violation.as_ref().unwrap();
+                assert!(v.constraint.name().starts_with("re-integration of "), "{v:?}");
+                assert!(v.value > 1e-3, "{v:?}");
+                assert_eq!(v.value, worst);
+            }
+            (11, PtrStatus::Converged) => assert!(worst < 1e-5, "{worst}"),
+            other => panic!("{other:?}: {:?}", s.max_violation),
+        }
+    }
+}

@@ -8,7 +8,7 @@ use armature_bridge::{BridgeError, Status};
 use armature_scvx::{IterationTable, PtrStatus, Solution};
 use clap::Args;
 
-use crate::output::ResultFile;
+use crate::output::{ResultFile, StartsReport};
 use crate::output_set::OutputSet;
 use crate::pipeline::{arm_task, plan_arm, refinement};
 use crate::streaming::{Streamer, wire_status};
@@ -130,11 +130,7 @@ fn locate(
     src: Source<'_>,
     e: &armature_scvx::ProblemError,
 ) -> crate::task::LocatedError {
-    use armature_scvx::ProblemError;
-    let what = match e {
-        ProblemError::Bad { what, .. } | ProblemError::Symbolic { what, .. } => what.as_str(),
-        _ => "",
-    };
+    let what = crate::settings::error_subject(e);
     let at = match what {
         "time" | "dilation" => Some(task.time.max.span().start),
         _ => crate::settings::setting_span(src.text, what),
@@ -353,12 +349,11 @@ fn summary(solution: &Solution, t0: Instant) -> Vec<String> {
 fn write_outputs(
     o: &OutputArgs,
     (name, plan): (&str, Option<&crate::pipeline::Plan>),
-    solution: &Solution,
-    iterates: Vec<Iterate>,
+    (solution, iterates, starts): (&Solution, Vec<Iterate>, Option<&StartsReport>),
     out: &mut dyn std::io::Write,
 ) -> Result<Vec<PathBuf>, CliError> {
     let scene = plan.map(Scene::from_plan);
-    let result = ResultFile { solution, scene: scene.as_ref(), iterates: &iterates };
+    let result = ResultFile { solution, scene: scene.as_ref(), iterates: &iterates, starts };
     let mut set = OutputSet::default();
     output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out, &mut set)?;
     if let Some(dir) = &o.plot {
@@ -403,11 +398,17 @@ pub fn run_task(
     check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
-    let (solution, iterates) = solve_stages(&mut loaded, &mut streamer, (src, o.quiet))?;
+    let Solved { solution, iterates, starts } =
+        solve_stages(&mut loaded, &mut streamer, (src, o.quiet))?;
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
     }
-    let written = write_outputs(o, (src.name, loaded.plan.as_ref()), &solution, iterates, out)?;
+    let written = write_outputs(
+        o,
+        (src.name, loaded.plan.as_ref()),
+        (&solution, iterates, starts.as_ref()),
+        out,
+    )?;
     for p in &written {
         say(o.quiet, &format!("wrote {}", p.display()));
     }
@@ -434,10 +435,11 @@ fn solve_starts(
     streamer: &mut Option<Streamer>,
     (src, quiet): (Source<'_>, bool),
     stage: Stage,
-) -> Result<(Solution, Vec<Iterate>), CliError> {
+) -> Result<Solved, CliError> {
     let others = loaded.starts.saturating_sub(1);
     let Some(timing) = loaded.plan.as_ref().filter(|_| others > 0).map(|p| p.timing()) else {
-        return solve_observed(loaded, streamer, (src, quiet), stage);
+        let (solution, iterates) = solve_observed(loaded, streamer, (src, quiet), stage)?;
+        return Ok(Solved { solution, iterates, starts: None });
     };
     let (observed, rest) = std::thread::scope(|scope| {
         let rest =
@@ -474,7 +476,16 @@ fn solve_starts(
         iterates.truncate(1);
     }
     let best = ends.swap_remove(chosen).map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
-    Ok((best, iterates))
+    let starts = Some(StartsReport { kept: chosen, each: summaries });
+    Ok(Solved { solution: best, iterates, starts })
+}
+
+/// What a task's solve hands to the outputs: the solution, the iterates the 3D view draws,
+/// and with several starts their report.
+struct Solved {
+    solution: Solution,
+    iterates: Vec<Iterate>,
+    starts: Option<StartsReport>,
 }
 
 /// Solves the task, and with a refinement then the refined task from that solution (when
@@ -483,16 +494,17 @@ fn solve_stages(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
     (src, quiet): (Source<'_>, bool),
-) -> Result<(Solution, Vec<Iterate>), CliError> {
+) -> Result<Solved, CliError> {
     let refined = loaded.refined.take();
     let first = Stage { offset: 0, last: refined.is_none() };
-    let (coarse, mut iterates) = solve_starts(loaded, streamer, (src, quiet), first)?;
+    let Solved { solution: coarse, mut iterates, starts } =
+        solve_starts(loaded, streamer, (src, quiet), first)?;
     let Some((factor, plan, mut compiled)) = refined else {
-        return Ok((coarse, iterates));
+        return Ok(Solved { solution: coarse, iterates, starts });
     };
     if coarse.status != PtrStatus::Converged {
         say(quiet, "not refined: the first stage did not converge");
-        return Ok((coarse, iterates));
+        return Ok(Solved { solution: coarse, iterates, starts });
     }
     armature_arm::set_refined_guess(&mut compiled, &coarse, factor)
         .map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
@@ -511,7 +523,7 @@ fn solve_stages(
     let (fine, more) = solve_observed(loaded, streamer, (src, quiet), second)?;
     // The guess's iterate of the second stage is the first stage's result: not drawn again.
     iterates.extend(more.into_iter().skip(1));
-    Ok((armature_arm::join_stages(&coarse, fine), iterates))
+    Ok(Solved { solution: armature_arm::join_stages(&coarse, fine), iterates, starts })
 }
 
 /// The initial guess as an iterate: the end effector at the IK configurations of the nodes.
