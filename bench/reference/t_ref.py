@@ -381,15 +381,18 @@ def solve_task(spec, k=INTERVALS, first=False):
         tr, backoff = plain, 0.0
         status, ok, x, final, times, as_, worst, what = tr.solve(
             np.concatenate([q.ravel(), v.ravel(), a.ravel(), h]))
+        # IPOPT's iterations from this start, the backed-off re-solves included.
+        iterations = tr.solver.stats()["iter_count"]
         for _ in range(BACKOFF_ROUNDS):
             if not (ok and worst > TOLERANCE and what.startswith("orientation")):
                 break
             backoff += 1.5 * worst
             tr = Transcription(spec, k, backoff)
             status, ok, x, final, times, as_, worst, what = tr.solve(x)
+            iterations += tr.solver.stats()["iter_count"]
         result["starts"].append(final if ok and worst <= TOLERANCE else None)
         print(f"  {spec['name']}: {name}: {status} T {final:.4f} worst {worst:.1e} ({what})"
-              f" backoff {backoff:.1e}", file=sys.stderr)
+              f" backoff {backoff:.1e}, {iterations} IPOPT iterations", file=sys.stderr)
         if ok and worst <= TOLERANCE and (best is None or final < best[0]):
             best = (final, status, times, as_ * inertia, backoff)
     if best is not None:
