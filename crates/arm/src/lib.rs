@@ -16,7 +16,7 @@ mod task;
 pub use error::{ArmError, TaskItem};
 pub use multi_start::{
     MultiStart, StartOutcome, StartSummary, best_start, scale_timing, solve_starts,
-    start_time_scale, summarize,
+    solve_starts_with, start_time_scale, summarize,
 };
 pub use plan::{ArmPlan, waypoint_parameter};
 pub use refine::{join_stages, set_refined_guess};

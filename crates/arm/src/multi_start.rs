@@ -80,9 +80,24 @@ pub fn solve_starts<F>(
 where
     F: Fn(f64) -> Result<CompiledProblem, ProblemError> + Sync,
 {
+    solve_starts_with(first, count, compile, |_, c| c.solve())
+}
+
+/// As [`solve_starts`], each start solved by `solve(i, compiled)`: through
+/// [`CompiledProblem::solve_with`] to watch its iterations (start `i`'s own).
+pub fn solve_starts_with<F, S>(
+    first: usize,
+    count: usize,
+    compile: F,
+    solve: S,
+) -> (Vec<Result<Solution, ProblemError>>, Vec<StartSummary>)
+where
+    F: Fn(f64) -> Result<CompiledProblem, ProblemError> + Sync,
+    S: Fn(usize, &mut CompiledProblem) -> Result<Solution, ProblemError> + Sync,
+{
     let ends: Vec<Result<Solution, ProblemError>> = (first..first + count)
         .into_par_iter()
-        .map(|i| compile(start_time_scale(i)).and_then(|mut c| c.solve()))
+        .map(|i| compile(start_time_scale(i)).and_then(|mut c| solve(i, &mut c)))
         .collect();
     let summaries = ends
         .iter()

@@ -69,3 +69,27 @@ fn best_start_prefers_converged_then_the_least_violation() {
     assert_eq!(best_start(&[failed(), failed()]), None);
     assert_eq!(best_start(&[]), None);
 }
+
+/// `solve_starts_with` hands each start's compiled problem to the caller's solve: watching
+/// it sees that start's own iterations, and the ends are those of `solve_starts`.
+#[test]
+fn starts_solved_by_the_caller_report_their_own_iterations() {
+    let mut plan = fixtures::pick_and_place().plan().unwrap();
+    plan.settings.max_iterations = 6;
+    let compile = |s: f64| plan.time_scaled(s).compile();
+    let seen: Vec<std::sync::Mutex<Vec<usize>>> = (0..3).map(|_| Default::default()).collect();
+    let (ends, summaries) = armature_arm::solve_starts_with(1, 3, compile, |i, c| {
+        let mut its = Vec::new();
+        let end = c.solve_with(|it, _| its.push(it.iteration));
+        *seen[i - 1].lock().unwrap() = its;
+        end
+    });
+    let (plain, _) = armature_arm::solve_starts(1, 3, compile);
+    for (j, (end, same)) in ends.iter().zip(&plain).enumerate() {
+        let (end, same) = (end.as_ref().unwrap(), same.as_ref().unwrap());
+        assert_eq!((end.final_time, end.iterations), (same.final_time, same.iterations));
+        assert_eq!(summaries[j].time_scale, start_time_scale(j + 1));
+        let its = seen[j].lock().unwrap().clone();
+        assert_eq!(its, (1..=end.iterations).collect::<Vec<_>>(), "start {}", j + 1);
+    }
+}

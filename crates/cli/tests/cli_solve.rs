@@ -444,6 +444,14 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
     }
     assert_eq!(each[0]["outcome"]["solved"].as_str(), Some("converged"), "{}", each[0]);
     assert!((each[kept_at]["final_time"].as_f64().unwrap() - written).abs() < 1e-12);
+    // The 3D view's iterates are the kept start's: the guess, then one per iteration, the
+    // last at the written final time.
+    let iterates = r["iterates"].as_array().unwrap();
+    let kept_iterations = each[kept_at]["iterations"].as_u64().unwrap() as usize;
+    assert_eq!(iterates.len(), 1 + kept_iterations, "start {}", kept_at + 1);
+    assert_eq!(iterates[0]["iteration"].as_u64(), Some(0));
+    let last = iterates.last().unwrap()["final_time"].as_f64().unwrap();
+    assert!((last - written).abs() < 1e-9, "{last} vs {written}");
     for bad in ["0", "17"] {
         let text = format!("{TASK}\n[initialization]\nstarts = {bad}\n");
         let line = text.lines().count();
@@ -453,6 +461,29 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
         let at = format!("task.toml:{line}:10: starts {bad}: give 1 to 16");
         assert!(stderr.contains(&at), "{stderr}");
     }
+}
+
+/// When a later start is kept, the result is that start's through and through: the UR5e
+/// rigid-body example with two starts keeps the second (0.7 × the guess's timing), and the
+/// 3D view's iterates are its own, not the first start's.
+#[test]
+fn a_later_start_kept_brings_its_own_iterates() {
+    let text = format!(
+        "{}\n[initialization]\nstarts = 2\n",
+        include_str!("../../../examples/ur5e-rigid-body.toml")
+    );
+    let path = temp_file("later-start", "task.toml", &text);
+    let (code, out, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
+    assert_eq!(code, 0, "{stderr}");
+    let r: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(r["starts"]["kept"].as_u64(), Some(1), "{}", r["starts"]);
+    let kept = &r["starts"]["each"][1];
+    let first = &r["starts"]["each"][0];
+    assert!(kept["final_time"].as_f64() < first["final_time"].as_f64(), "{}", r["starts"]);
+    let iterates = r["iterates"].as_array().unwrap();
+    assert_eq!(iterates.len() as u64, 1 + kept["iterations"].as_u64().unwrap());
+    let last = iterates.last().unwrap()["final_time"].as_f64().unwrap();
+    assert!((last - r["final_time"].as_f64().unwrap()).abs() < 1e-9);
 }
 
 /// The task format documented at the top of `src/task.rs` is a task that solves: its TOML

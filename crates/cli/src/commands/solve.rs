@@ -2,6 +2,7 @@
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use armature_bridge::{BridgeError, Status};
@@ -260,15 +261,8 @@ fn solve_observed(
             if !quiet {
                 let _ = IterationTable::row(&mut std::io::stderr(), it);
             }
-            if task
-                && let Ok(tables) = layout.nodal_tables(traj)
-                && let Some(ee) = tables.get("ee_position")
-            {
-                iterates.push(Iterate {
-                    iteration: it.iteration,
-                    final_time: traj.final_time,
-                    ee: ee.iter().map(|p| [p[0], p[1], p[2]]).collect(),
-                });
+            if task {
+                iterates.extend(ee_iterate(&layout, it.iteration, traj));
             }
             if let (Some(s), None) = (streamer.as_mut(), &stream_error) {
                 let status = it.status.map_or(Status::Running, wire_status);
@@ -425,11 +419,11 @@ pub fn run_task(
 }
 
 /// The observed solve from the task's guess, and with `[initialization] starts = K > 1`
-/// the other K − 1 starts beside it ([`armature_arm::solve_starts`], unobserved), the best
-/// kept ([`armature_arm::best_start`]) and every start reported in a line. The iteration
-/// table and the streamed iterates are the first start's; when another start wins, the
-/// iterates drawn are the guess alone (the kept start's were not recorded), and the result
-/// written, streamed at the end and refined is the kept start's.
+/// the other K − 1 starts beside it ([`armature_arm::solve_starts_with`], their iterates
+/// recorded), the best kept ([`armature_arm::best_start`]) and every start reported in a
+/// line. The iteration table and the streamed iterates are the first start's; the iterates
+/// the 3D view draws, the result written, streamed at the end and refined are the kept
+/// start's.
 fn solve_starts(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
@@ -441,9 +435,22 @@ fn solve_starts(
         let (solution, iterates) = solve_observed(loaded, streamer, (src, quiet), stage)?;
         return Ok(Solved { solution, iterates, starts: None });
     };
+    // The other starts' iterates, recorded for the 3D view should one of them be kept.
+    let recorded: Vec<Mutex<Vec<Iterate>>> = (0..others).map(|_| Mutex::default()).collect();
+    let layout = loaded.compiled.layout().clone();
+    let record = |i: usize, c: &mut armature_scvx::CompiledProblem| {
+        let mut its = Vec::new();
+        let end = c.solve_with(|it, traj| {
+            its.extend(ee_iterate(&layout, it.iteration + stage.offset, traj));
+        });
+        if let Ok(mut slot) = recorded[i - 1].lock() {
+            *slot = its;
+        }
+        end
+    };
     let (observed, rest) = std::thread::scope(|scope| {
-        let rest =
-            scope.spawn(|| armature_arm::solve_starts(1, others, |s| timing.compile_scaled(s)));
+        let compile = |s| timing.compile_scaled(s);
+        let rest = scope.spawn(move || armature_arm::solve_starts_with(1, others, compile, record));
         let observed = solve_observed(loaded, streamer, (src, quiet), stage);
         (observed, rest.join())
     });
@@ -473,7 +480,10 @@ fn solve_starts(
         );
     }
     if chosen != 0 {
+        // The guess, then the kept start's iterates.
         iterates.truncate(1);
+        let kept = recorded.into_iter().nth(chosen - 1).map(Mutex::into_inner);
+        iterates.extend(kept.and_then(Result::ok).unwrap_or_default());
     }
     let best = ends.swap_remove(chosen).map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
     let starts = Some(StartsReport { kept: chosen, each: summaries });
@@ -524,6 +534,22 @@ fn solve_stages(
     // The guess's iterate of the second stage is the first stage's result: not drawn again.
     iterates.extend(more.into_iter().skip(1));
     Ok(Solved { solution: armature_arm::join_stages(&coarse, fine), iterates, starts })
+}
+
+/// An iterate as the 3D view draws it: the end effector at the nodes (`None` for a problem
+/// without an `ee_position` output).
+fn ee_iterate(
+    layout: &armature_scvx::SolutionLayout,
+    iteration: usize,
+    traj: &armature_scvx::Trajectory<'_>,
+) -> Option<Iterate> {
+    let tables = layout.nodal_tables(traj).ok()?;
+    let ee = tables.get("ee_position")?;
+    Some(Iterate {
+        iteration,
+        final_time: traj.final_time,
+        ee: ee.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+    })
 }
 
 /// The initial guess as an iterate: the end effector at the IK configurations of the nodes.

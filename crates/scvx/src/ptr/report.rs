@@ -18,9 +18,9 @@ pub enum PtrStatus {
     /// Clarabel failed numerically.
     NumericalFailure,
     /// The loop converged at the nodes, but a constraint held in continuous time is violated
-    /// on the dense trajectory by more than
-    /// [`dense_tolerance`](crate::PtrSettings::dense_tolerance) (set by the named layer's
-    /// check after the solve; the violations name it).
+    /// on the dense trajectory, or the dense re-integration lands away from a node's state,
+    /// by more than [`dense_tolerance`](crate::PtrSettings::dense_tolerance) (set by the
+    /// named layer's check after the solve; the violations name it).
     ViolatedBetweenNodes,
 }
 
