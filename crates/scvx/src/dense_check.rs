@@ -1,15 +1,15 @@
 //! The honest report: every constraint the problem holds in continuous time, evaluated on
 //! the dense trajectory after the solve — the path constraints (`.ctcs()`, over their node
 //! ranges), the between-nodes constraints, the state bounds when they are held between
-//! the nodes ([`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)), and how
-//! far the re-integrated states land from the node states ([`node_drift`]). The PTR
+//! the nodes ([`Problem::state_bounds_ctcs`](crate::Problem::state_bounds_ctcs)), and the
+//! nodes' own conditions on the re-integrated motion ([`nodes_on_dense`]). The PTR
 //! loop sees these only through integrals and peak rows; a solve whose dense trajectory
 //! breaks one by more than [`PtrSettings::dense_tolerance`](crate::PtrSettings) is not
 //! reported converged.
 
 use armature_symbolic::Function;
 
-use crate::{ConstraintRef, DenseTrajectory, ProblemError, Violation};
+use crate::{ConstraintRef, DenseTrajectory, NodalKind, Ocp, ProblemError, Violation};
 
 /// A vector function `g(x, u) ≤ 0` held from node `first` to node `last`.
 #[derive(Debug, Clone)]
@@ -102,35 +102,69 @@ impl DenseChecks {
     }
 }
 
-/// How far the dense re-integration (from the initial state, through the controls and
-/// dilations alone) lands from the solution's own node states: for each of the first `rows`
-/// state rows (the problem's states, not the CTCS integrals), the largest
-/// `|x_dense(t_k) − x_k|` over the nodes k ≥ 1, named `re-integration of NAME`, at the node's
-/// instant (its segment: the one that ends there). The solver holds its dynamics on its own
-/// integration grid; this is that grid's error as the dense trajectory sees it — at the last
-/// node, how far from its final condition the re-integrated motion ends.
-pub(crate) fn node_drift(
+/// The nodes' own conditions on the dense re-integration (from the initial state, through
+/// the controls and dilations alone): each nodal constraint of `ocp` evaluated at its nodes
+/// with the re-integrated states at those instants (and the nodes' controls), and each fixed
+/// final value against the re-integrated final state. The solver holds its dynamics on its
+/// own integration grid, and these conditions at its node values; this is what they are on
+/// the motion the controls produce. Reported as `NAME, re-integrated` and
+/// `final value of STATE, re-integrated`, at the node's instant (its segment: the one that
+/// ends there); values as in [`DenseChecks::violations`].
+///
+/// # Errors
+/// A constraint's evaluation failure, naming it.
+pub(crate) fn nodes_on_dense(
+    ocp: &Ocp,
     dense: &DenseTrajectory,
-    x_nodes: &[f64],
-    (n, rows): (usize, usize),
-    name: impl Fn(usize) -> String,
-) -> Vec<Violation> {
-    // A segment's last sample is its end node (the steps divide each segment evenly).
-    let ends: Vec<(usize, usize)> = (1..dense.segment.len())
-        .filter(|&j| dense.segment.get(j + 1).is_none_or(|&next| next != dense.segment[j]))
-        .map(|j| (j, dense.segment[j] + 1))
-        .filter(|&(_, k)| (k + 1) * n <= x_nodes.len())
-        .collect();
-    (0..rows)
-        .map(|row| {
-            let drift = ends.iter().map(|&(j, k)| {
-                let d = (dense.x[j * n + row] - x_nodes[k * n + row]).abs();
-                (if d.is_nan() { f64::INFINITY } else { d }, j)
-            });
-            let name = format!("re-integration of {}", name(row));
-            violation(ConstraintRef::Dense { name }, worst(drift), dense)
-        })
-        .collect()
+    u_nodes: &[f64],
+) -> Result<Vec<Violation>, ProblemError> {
+    let (n, m) = (ocp.dynamics.n_x(), ocp.dynamics.n_u());
+    // Each node's sample: the first, then each segment's last (the steps divide each segment
+    // evenly, so it is the segment's end node).
+    let mut at_node = vec![0];
+    at_node.extend(
+        (1..dense.segment.len())
+            .filter(|&j| dense.segment.get(j + 1).is_none_or(|&next| next != dense.segment[j])),
+    );
+    let x = |j: usize| &dense.x[j * n..(j + 1) * n];
+    let mut out = Vec::with_capacity(ocp.nodal.len() + n);
+    let mut input = vec![0.0; n + m];
+    for c in &ocp.nodal {
+        let mut ws = c.function.workspace();
+        let mut values = vec![0.0; c.function.n_outputs()];
+        let mut best: Option<(f64, usize)> = None;
+        for &k in c.nodes.iter().filter(|&&k| k < at_node.len() && (k + 1) * m <= u_nodes.len()) {
+            let j = at_node[k];
+            input[..n].copy_from_slice(x(j));
+            input[n..].copy_from_slice(&u_nodes[k * m..(k + 1) * m]);
+            c.function.eval(&input, &mut ws, &mut values, None).map_err(|source| {
+                ProblemError::Symbolic {
+                    what: format!("constraint \"{}\" on the re-integrated nodes", c.name),
+                    source,
+                }
+            })?;
+            let excess = match c.kind {
+                NodalKind::Inequality => values.iter().copied().fold(0.0, f64::max),
+                NodalKind::Ball { radius } => {
+                    (values.iter().map(|v| v * v).sum::<f64>().sqrt() - radius).max(0.0)
+                }
+            };
+            let v = if values.iter().any(|v| v.is_nan()) { f64::INFINITY } else { excess };
+            best = worst(best.into_iter().chain(std::iter::once((v, j))));
+        }
+        let name = format!("{}, re-integrated", c.name);
+        out.push(violation(ConstraintRef::Dense { name }, best, dense));
+    }
+    let last = *at_node.last().unwrap_or(&0);
+    for (row, fixed) in ocp.x_final.iter().enumerate() {
+        let Some(value) = fixed else { continue };
+        let d = (x(last)[row] - value).abs();
+        let w = Some((if d.is_nan() { f64::INFINITY } else { d }, last));
+        let state = ocp.dynamics.state_name(row).unwrap_or("state");
+        let name = format!("final value of {state}, re-integrated");
+        out.push(violation(ConstraintRef::Dense { name }, w, dense));
+    }
+    Ok(out)
 }
 
 fn violation(

@@ -58,7 +58,7 @@ mod variables;
 pub use solution::{Solution, SolutionLayout, SolutionTimings};
 pub use variables::{Boundary, Control, State, Time};
 
-use crate::dense_check::{BoundCheck, DenseChecks, PathCheck, node_drift};
+use crate::dense_check::{BoundCheck, DenseChecks, PathCheck, nodes_on_dense};
 use crate::{
     ConstraintRef, CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration,
     NodalConstraint, NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
@@ -487,8 +487,7 @@ impl CompiledProblem {
         };
         let checked = fine.as_ref().unwrap_or(&dense);
         let mut dense_violations = self.dense_checks.violations(checked, (n, m), &node_times)?;
-        let name = |row: usize| ocp.dynamics.state_name(row).unwrap_or("state").to_string();
-        dense_violations.extend(node_drift(checked, &r.x, (n, self.ctcs_row0), name));
+        dense_violations.extend(nodes_on_dense(ocp, checked, &r.u)?);
         let worst_dense = dense_violations.iter().map(|v| v.value).fold(0.0, f64::max);
         let status =
             if r.status == PtrStatus::Converged && worst_dense > self.settings.dense_tolerance {

@@ -18,9 +18,10 @@ pub enum PtrStatus {
     /// Clarabel failed numerically.
     NumericalFailure,
     /// The loop converged at the nodes, but a constraint held in continuous time is violated
-    /// on the dense trajectory, or the dense re-integration lands away from a node's state,
-    /// by more than [`dense_tolerance`](crate::PtrSettings::dense_tolerance) (set by the
-    /// named layer's check after the solve; the violations name it).
+    /// on the dense trajectory, or a node's own condition (a nodal constraint, a final value)
+    /// on the re-integrated motion, by more than
+    /// [`dense_tolerance`](crate::PtrSettings::dense_tolerance) (set by the named layer's
+    /// check after the solve; the violations name it).
     ViolatedBetweenNodes,
 }
 

@@ -73,9 +73,9 @@ pub struct PtrSettings {
     /// whatever this is.
     pub dense_dt: f64,
     /// Largest violation of a continuous-time constraint on the dense trajectory that a
-    /// converged solve may keep (in the constraint's units; default 1e-4), and the largest
-    /// distance of the dense re-integration from a node's state (in the state's units): above
-    /// it the named layer reports [`PtrStatus::ViolatedBetweenNodes`].
+    /// converged solve may keep (in the constraint's units; default 1e-4), and of a nodal
+    /// constraint or a fixed final value on the re-integrated motion: above it the named
+    /// layer reports [`PtrStatus::ViolatedBetweenNodes`].
     pub dense_tolerance: f64,
     /// With [`TrustRegionUpdate::Adaptive`]: before rejecting a step, try it scaled by ½ and
     /// ¼ (each costs a discretization, not a subproblem); a scaled step is accepted when its
