@@ -9,7 +9,7 @@
 
 use armature_symbolic::Function;
 
-use crate::{ConstraintRef, DenseTrajectory, NodalKind, Ocp, ProblemError, Violation};
+use crate::{ConstraintRef, DenseTrajectory, Ocp, ProblemError, Violation};
 
 /// A vector function `g(x, u) ≤ 0` held from node `first` to node `last`.
 #[derive(Debug, Clone)]
@@ -143,12 +143,7 @@ pub(crate) fn nodes_on_dense(
                     source,
                 }
             })?;
-            let excess = match c.kind {
-                NodalKind::Inequality => values.iter().copied().fold(0.0, f64::max),
-                NodalKind::Ball { radius } => {
-                    (values.iter().map(|v| v * v).sum::<f64>().sqrt() - radius).max(0.0)
-                }
-            };
+            let excess = c.kind.excess(&values).max(0.0);
             let v = if values.iter().any(|v| v.is_nan()) { f64::INFINITY } else { excess };
             best = worst(best.into_iter().chain(std::iter::once((v, j))));
         }

@@ -191,6 +191,25 @@ pub enum NodalKind {
     },
 }
 
+impl NodalKind {
+    /// How far `g` lies beyond what the constraint allows (≤ 0: it holds): the largest entry
+    /// of an inequality, `‖g‖ − radius` for a ball.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_scvx::NodalKind;
+    ///
+    /// assert_eq!(NodalKind::Inequality.excess(&[-1.0, 0.25]), 0.25);
+    /// assert_eq!(NodalKind::Ball { radius: 1.0 }.excess(&[3.0, 4.0]), 4.0);
+    /// ```
+    pub fn excess(&self, g: &[f64]) -> f64 {
+        match *self {
+            NodalKind::Inequality => g.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            NodalKind::Ball { radius } => g.iter().map(|v| v * v).sum::<f64>().sqrt() - radius,
+        }
+    }
+}
+
 impl Ocp {
     /// Checks that the parts fit together: sizes of the bounds and boundary values, bounds in
     /// order, nodes within the grid, functions compiled against `[states], [controls]`, the

@@ -279,9 +279,8 @@ impl Ptr {
             let vo = self.g_offsets[eval].0;
             let v = match (out, c.kind) {
                 (Some(o), _) => ev.values[vo + o],
-                (None, NodalKind::Ball { radius }) => {
-                    let g = &ev.values[vo..vo + c.function.n_outputs()];
-                    g.iter().map(|v| v * v).sum::<f64>().sqrt() - radius
+                (None, kind @ NodalKind::Ball { .. }) => {
+                    kind.excess(&ev.values[vo..vo + c.function.n_outputs()])
                 }
                 (None, NodalKind::Inequality) => 0.0,
             };
