@@ -24,13 +24,12 @@ use super::scaling::Scaling;
 use super::{Cones, IpmError, dot};
 use crate::sparse::{CscPattern, Rows};
 
-/// A product `kkt[kkt] += weight_i · a[pa] · a[pb]` of a nonnegative row i.
+/// A product `kkt[kkt] += weight_i · a[pa] · a[pb]` of a nonnegative row i: its K entry and
+/// row here (what every factorization reads, 8 bytes), its A positions in `term_a`.
 #[derive(Debug, Clone, Copy)]
 struct Term {
-    kkt: usize,
-    row: usize,
-    pa: usize,
-    pb: usize,
+    kkt: u32,
+    row: u32,
 }
 
 /// The LDLᵀ factor's dynamic regularization (ε, δ): a pivot of the wrong sign, or within ε
@@ -51,6 +50,11 @@ pub(super) struct ReducedKkt {
     dense_diag: Vec<usize>,
     diag: Vec<usize>,
     terms: Vec<Term>,
+    /// Per term: its A positions (pa, pb), and `a[pa]·a[pb]` for the A of this solve
+    /// ([`load_a`](Self::load_a)): A is fixed while the interior point iterates, only the
+    /// weights change, so each factorization reads one product instead of two values of A.
+    term_a: Vec<(u32, u32)>,
+    term_products: Vec<f64>,
     /// Per cone: its columns (`cone_cols[k]..cone_cols[k + 1]` in a flat list), for each of
     /// those columns and each cone row the value index in A or `usize::MAX`, and the KKT
     /// entries (index, column a, column b) of each column pair.
@@ -66,6 +70,8 @@ pub(super) struct ReducedKkt {
     ldl: Ldl,
     pub(super) rhs: Vec<f64>,
     pub(super) sol: Vec<f64>,
+    /// Scratch of [`load_rhs`](Self::load_rhs), one entry per row of A.
+    masked: Vec<f64>,
 }
 
 impl ReducedKkt {
@@ -159,10 +165,17 @@ impl ReducedKkt {
             dense_map.extend(rows.row(r).iter().map(|&(c, p)| (p, find(c, n + m0 + j))));
         }
         let dense_diag = (0..dense.len()).map(|j| find(n + m0 + j, n + m0 + j)).collect();
+        let narrow = |i: usize| u32::try_from(i).map_err(|_| IpmError::Pattern("K too large"));
+        // Kept row by row, as made: sorted by K entry, consecutive terms would update the
+        // same entry and wait on each other (measured: the assembly twice as slow).
         let terms = raw_terms
             .iter()
-            .map(|&(ca, cb, row, pa, pb)| Term { kkt: find(ca, cb), row, pa, pb })
-            .collect();
+            .map(|&(ca, cb, row, _, _)| Ok(Term { kkt: narrow(find(ca, cb))?, row: narrow(row)? }))
+            .collect::<Result<Vec<_>, IpmError>>()?;
+        let term_a = raw_terms
+            .iter()
+            .map(|&(_, _, _, pa, pb)| Ok((narrow(pa)?, narrow(pb)?)))
+            .collect::<Result<Vec<_>, IpmError>>()?;
         let pairs = pair_cols.iter().map(|&(ca, cb, ja, jb)| (find(ca, cb), ja, jb)).collect();
         let nnz = pattern.nnz();
         let mut signs = vec![1i8; dim];
@@ -178,7 +191,9 @@ impl ReducedKkt {
             dense_map,
             dense_diag,
             diag,
+            term_products: vec![0.0; terms.len()],
             terms,
+            term_a,
             cone_cols,
             cone_g,
             pair_ptr,
@@ -189,6 +204,7 @@ impl ReducedKkt {
             ldl,
             rhs: vec![0.0; dim],
             sol: vec![0.0; dim],
+            masked: vec![0.0; m0 + cones.nonneg + cones.soc.iter().sum::<usize>()],
         })
     }
 
@@ -213,8 +229,16 @@ impl ReducedKkt {
         (self.values.len(), self.ldl.nnz_l())
     }
 
+    /// Takes the values of A for the factorizations that follow (the products of its
+    /// nonnegative rows' entries).
+    pub(super) fn load_a(&mut self, a: &[f64]) {
+        for (x, &(pa, pb)) in self.term_products.iter_mut().zip(&self.term_a) {
+            *x = a[pa as usize] * a[pb as usize];
+        }
+    }
+
     /// Values of P (upper), A and the scaling into K, then its factorization; false if that
-    /// fails or is not finite.
+    /// fails or is not finite. A must be the one last given to [`load_a`](Self::load_a).
     pub(super) fn factor(
         &mut self,
         p: &[f64],
@@ -234,8 +258,8 @@ impl ReducedKkt {
         for (&r, &i) in self.dense.iter().zip(&self.dense_diag) {
             kkt[i] -= 1.0 / scaling.weights[r - cones.zero];
         }
-        for t in &self.terms {
-            kkt[t.kkt] += scaling.weights[t.row] * a[t.pa] * a[t.pb];
+        for (t, &product) in self.terms.iter().zip(&self.term_products) {
+            kkt[t.kkt as usize] += scaling.weights[t.row as usize] * product;
         }
         for (k, &d) in cones.soc.iter().enumerate() {
             let (c0, c1) = (self.cone_cols[k], self.cone_cols[k + 1]);
@@ -268,24 +292,27 @@ impl ReducedKkt {
 
     /// The right-hand side for the reduced system of the Newton step
     /// `(P + GᵀW⁻²G)Δx + A₀ᵀΔz₀ = r₁ − GᵀW⁻²v`, `A₀Δx = r₂,₀` with `wv = W⁻²v` (cone rows):
-    /// a dense row's term moves to its own row, `a_iᵀΔx − Δz_i·s_i/z_i = −v_i`.
+    /// a dense row's term moves to its own row, `a_iᵀΔx − Δz_i·s_i/z_i = −v_i`. A is given
+    /// by columns (`colptr`, `rowval`, values), so that `Gᵀ(W⁻²v)` is one gathered sum per
+    /// column.
     pub(super) fn load_rhs(
         &mut self,
         (r1, r2_eq): (&[f64], &[f64]),
-        (rows, a): (&Rows, &[f64]),
+        (colptr, rowval, a): (&[usize], &[usize], &[f64]),
         (wv, v): (&[f64], &[f64]),
     ) {
         let (n, m0) = (self.n, r2_eq.len());
-        let m = m0 + wv.len();
-        self.rhs[..n].copy_from_slice(r1);
-        let mut dense = self.dense.iter().peekable();
-        for r in m0..m {
-            if dense.next_if_eq(&&r).is_some() {
-                continue;
-            }
-            for &(c, pp) in rows.row(r) {
-                self.rhs[c] -= a[pp] * wv[r - m0];
-            }
+        // W⁻²v on the cone rows that fold into K, zero elsewhere.
+        self.masked[..m0].fill(0.0);
+        self.masked[m0..].copy_from_slice(wv);
+        for &r in &self.dense {
+            self.masked[r] = 0.0;
+        }
+        for c in 0..n {
+            let range = colptr[c]..colptr[c + 1];
+            let gathered: f64 =
+                rowval[range.clone()].iter().zip(&a[range]).map(|(&r, x)| x * self.masked[r]).sum();
+            self.rhs[c] = r1[c] - gathered;
         }
         self.rhs[n..n + m0].copy_from_slice(r2_eq);
         for (j, &r) in self.dense.iter().enumerate() {

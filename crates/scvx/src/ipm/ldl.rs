@@ -30,9 +30,10 @@ pub(super) struct Ldl {
     /// Permuted upper triangle of K by column: (row, index into the caller's values).
     a_colptr: Vec<usize>,
     a_entries: Vec<(usize, usize)>,
-    /// Strictly lower L, column-compressed, rows ascending in each column.
+    /// Strictly lower L, column-compressed, rows ascending in each column (as `u32`: the
+    /// factorization streams them, and half the bytes is a measurable share of its time).
     l_colptr: Vec<usize>,
-    l_row: Vec<usize>,
+    l_row: Vec<u32>,
     lx: Vec<f64>,
     /// Row pattern of L: for row k, (column j, position of L(k, j) in `lx`), j ascending.
     l_rows: Rows,
@@ -56,7 +57,7 @@ impl Ldl {
         regularization: (f64, f64),
     ) -> Option<Ldl> {
         let symbolic = symbolic(colptr, rowval, None)?;
-        Some(Ldl::from_symbolic(colptr, rowval, signs, regularization, &symbolic))
+        Ldl::from_symbolic(colptr, rowval, signs, regularization, &symbolic)
     }
 
     /// The same pattern analysed in the cheapest of the `candidates` orderings
@@ -75,6 +76,7 @@ impl Ldl {
             .min_by_key(|s| factor_work(&s.L.colptr))?;
         (factor_work(&best.L.colptr) < than)
             .then(|| Ldl::from_symbolic(colptr, rowval, signs, regularization, &best))
+            .flatten()
     }
 
     /// Arithmetic of one factorization ([`factor_work`]).
@@ -88,7 +90,7 @@ impl Ldl {
         signs: &[i8],
         (eps, delta): (f64, f64),
         symbolic: &QDLDLFactorisation<f64>,
-    ) -> Ldl {
+    ) -> Option<Ldl> {
         let n = colptr.len() - 1;
         let nnz = rowval.len();
         let perm = symbolic.perm.clone();
@@ -115,9 +117,10 @@ impl Ldl {
         let a_entries = entries.iter().map(|&(r, _, k)| (r, k)).collect();
         // L's pattern, and its transpose with positions.
         let l_colptr = symbolic.L.colptr.clone();
-        let l_row = symbolic.L.rowval.clone();
-        let l_rows = Rows::new(n, &l_colptr, &l_row);
-        Ldl {
+        let l_rows = Rows::new(n, &l_colptr, &symbolic.L.rowval);
+        let l_row =
+            symbolic.L.rowval.iter().map(|&r| u32::try_from(r).ok()).collect::<Option<Vec<_>>>()?;
+        Some(Ldl {
             perm,
             a_colptr,
             a_entries,
@@ -132,7 +135,7 @@ impl Ldl {
             delta,
             y: vec![0.0; n],
             work: vec![0.0; n],
-        }
+        })
     }
 
     /// Nonzeros of L (strictly lower).
@@ -158,7 +161,7 @@ impl Ldl {
                 self.y[j] = 0.0;
                 let start = self.l_colptr[j];
                 for (&i, &lij) in self.l_row[start..pos].iter().zip(&self.lx[start..pos]) {
-                    self.y[i] -= lij * yj;
+                    self.y[i as usize] -= lij * yj;
                 }
                 let lkj = yj * self.dinv[j];
                 self.lx[pos] = lkj;
@@ -187,7 +190,7 @@ impl Ldl {
             let wj = self.work[j];
             let range = self.l_colptr[j]..self.l_colptr[j + 1];
             for (&i, &l) in self.l_row[range.clone()].iter().zip(&self.lx[range]) {
-                self.work[i] -= l * wj;
+                self.work[i as usize] -= l * wj;
             }
         }
         for (w, di) in self.work.iter_mut().zip(&self.dinv) {
@@ -197,7 +200,7 @@ impl Ldl {
             let range = self.l_colptr[j]..self.l_colptr[j + 1];
             let mut acc = self.work[j];
             for (&i, &l) in self.l_row[range.clone()].iter().zip(&self.lx[range]) {
-                acc -= l * self.work[i];
+                acc -= l * self.work[i as usize];
             }
             self.work[j] = acc;
         }

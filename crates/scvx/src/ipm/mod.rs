@@ -459,6 +459,7 @@ impl InteriorPoint {
         let (m0, tol) = (self.cones.zero, self.tolerance);
         self.compact(a);
         self.select_kkt();
+        self.kkt.load_a(a);
         self.iterations = 0;
         let mut warm = self.settings.warm_start_margin > 0.0 && self.has_solution;
         self.has_solution = false;

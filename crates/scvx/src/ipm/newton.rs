@@ -70,14 +70,15 @@ impl InteriorPoint {
                 }
             }
         }
-        self.rz.iter_mut().zip(b).zip(&self.s).for_each(|((r, bi), si)| *r = si - bi);
         let a = &self.live_a;
         for c in 0..n {
-            for k in self.live_colptr[c]..self.live_colptr[c + 1] {
-                let r = self.live_rowval[k];
-                self.rx[c] += a[k] * self.z[r];
-                self.rz[r] += a[k] * self.x[c];
-            }
+            let range = self.live_colptr[c]..self.live_colptr[c + 1];
+            let zc = self.live_rowval[range.clone()].iter().zip(&a[range]);
+            self.rx[c] += zc.map(|(&r, ak)| ak * self.z[r]).sum::<f64>();
+        }
+        // Row by row: each rz entry is one gathered sum instead of scattered updates.
+        for (r, out) in self.rz.iter_mut().enumerate() {
+            *out = self.live_rows.dot_from(self.s[r] - b[r], r, a, &self.x);
         }
         Residuals {
             primal: inf_norm(&self.rz),
@@ -144,16 +145,14 @@ impl InteriorPoint {
                     }
                 }
             }
-            for ((r, b), d) in nw.r2.iter_mut().zip(&nw.b2).zip(&self.ds) {
-                *r = b - d;
-            }
             let a = &self.live_a;
             for c in 0..n {
-                for k in self.live_colptr[c]..self.live_colptr[c + 1] {
-                    let r = self.live_rowval[k];
-                    nw.r1[c] -= a[k] * self.dz[r];
-                    nw.r2[r] -= a[k] * self.dx[c];
-                }
+                let range = self.live_colptr[c]..self.live_colptr[c + 1];
+                let zc = self.live_rowval[range.clone()].iter().zip(&a[range]);
+                nw.r1[c] -= zc.map(|(&r, ak)| ak * self.dz[r]).sum::<f64>();
+            }
+            for (r, out) in nw.r2.iter_mut().enumerate() {
+                *out = nw.b2[r] - self.ds[r] - self.live_rows.dot(r, a, &self.dx);
             }
             self.scaling.apply_w(&self.dz[m0..], &mut nw.t1);
             self.scaling.apply_winv(&self.ds[m0..], &mut nw.t2);
@@ -183,7 +182,8 @@ impl InteriorPoint {
             nw.v[r - m0] = nw.t1[r - m0] - nw.r2[r];
         }
         self.scaling.apply_winv2(&nw.v, &mut nw.t2, &mut nw.t3);
-        self.kkt.load_rhs((&nw.r1, &nw.r2[..m0]), (rows, a), (&nw.t2, &nw.v));
+        let by_columns = (&self.live_colptr[..], &self.live_rowval[..], &a[..]);
+        self.kkt.load_rhs((&nw.r1, &nw.r2[..m0]), by_columns, (&nw.t2, &nw.v));
         self.kkt.solve();
         nw.cx.copy_from_slice(&self.kkt.sol[..n]);
         nw.cz[..m0].copy_from_slice(&self.kkt.sol[n..n + m0]);

@@ -112,8 +112,8 @@ impl InteriorPoint {
         let nw = &mut self.newton;
         nw.r1.iter_mut().zip(q).for_each(|(r, qi)| *r = -qi);
         nw.v.iter_mut().zip(&b[m0..]).for_each(|(v, bi)| *v = -bi);
-        let (live, rows) = (&self.live_a[..], &self.live_rows);
-        self.kkt.load_rhs((&nw.r1, &b[..m0]), (rows, live), (&nw.v, &nw.v));
+        let by_columns = (&self.live_colptr[..], &self.live_rowval[..], &self.live_a[..]);
+        self.kkt.load_rhs((&nw.r1, &b[..m0]), by_columns, (&nw.v, &nw.v));
         self.kkt.solve();
         self.x.copy_from_slice(&self.kkt.sol[..n]);
         self.z[..m0].copy_from_slice(&self.kkt.sol[n..n + m0]);
