@@ -1,9 +1,11 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
-//! [--velocity-peaks true|false]`: solves every task of the suite with
+//! [--velocity-peaks true|false] [--history]`: solves every task of the suite with
 //! default settings, verifies each independently and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
 //! writes the tasks (with armature's guesses and solutions) for `bench/reference/t_ref.py`.
+//! `--history` prints each task's SCvx iteration table (`IterationTable`: ρ, defects,
+//! violations, λ_tr per iteration) before its line, to see how a solve walks.
 //!
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
@@ -49,10 +51,14 @@ fn main() {
         eprintln!("no reference: {e}");
         BTreeMap::new()
     });
+    let history = args.iter().any(|a| a == "--history");
     let mut outcomes = Vec::new();
     let mut t_ref = BTreeMap::new();
     for t in &tasks {
         let o = run::run_one(t);
+        if history {
+            print_history(&o.history);
+        }
         let r = refs
             .get(&t.name)
             .and_then(|r| r.final_time.map(|tr| (tr, reference::verify_reference(t, r))));
@@ -87,5 +93,16 @@ fn main() {
         let all: Vec<_> =
             tasks.iter().zip(&outcomes).map(|(t, o)| reference::export(t, Some(o))).collect();
         write(path, serde_json::to_string(&all).expect("tasks serialize"));
+    }
+}
+
+/// The iteration table of one solve, to standard error.
+fn print_history(history: &[armature_scvx::Iteration]) {
+    let mut err = std::io::stderr().lock();
+    let table = armature_scvx::IterationTable::header(&mut err).and_then(|()| {
+        history.iter().try_for_each(|it| armature_scvx::IterationTable::row(&mut err, it))
+    });
+    if let Err(e) = table {
+        eprintln!("error: the iteration table: {e}");
     }
 }

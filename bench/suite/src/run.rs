@@ -37,6 +37,9 @@ pub struct Outcome {
     /// The solution at the nodes (kept for the reference's export).
     #[serde(skip)]
     pub solution: Option<NodeSolution>,
+    /// The solver's iteration records (both stages' with `--refine`).
+    #[serde(skip)]
+    pub history: Vec<armature_scvx::Iteration>,
 }
 
 /// A solution at its nodes.
@@ -119,6 +122,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         verified: false,
         infeasible: t.infeasible.map(String::from),
         solution: None,
+        history: Vec::new(),
     };
     let start = Instant::now();
     let (solution, fine) = match solve(t) {
@@ -141,6 +145,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     };
     out.status = format!("{:?}", solution.status);
     out.iterations = solution.iterations;
+    out.history = solution.history.clone();
     out.final_time = solution.final_time;
     let nodes = &solution.nodes;
     let times: Vec<f64> = nodes["time"].iter().map(|r| r[0]).collect();

@@ -156,3 +156,23 @@ fn self_collision_is_checked_on_the_tasks_own_link_pairs() {
     let bad = verify::check(&checks, &still(folded), &[0.0]);
     assert!(bad.value > 0.0 && bad.what.starts_with("capsules"), "{bad:?}");
 }
+
+#[test]
+fn an_outcome_keeps_the_solvers_iteration_records() {
+    let tasks = suite();
+    let task = tasks.iter().find(|t| t.name == "ur5e-urdf-00").expect("the task");
+    let outcome = armature_suite::run::run_one(task);
+    assert!(outcome.verified, "{} {}", outcome.status, outcome.worst_what);
+    assert_eq!(outcome.history.len(), outcome.iterations);
+    let last = outcome.history.last().expect("a record per iteration");
+    assert_eq!(last.status, Some(armature_scvx::PtrStatus::Converged));
+    assert!((last.final_time - outcome.final_time).abs() < 1e-12);
+    // What `--history` prints: a header and a row per record.
+    let mut table = Vec::new();
+    armature_scvx::IterationTable::header(&mut table).unwrap();
+    for it in &outcome.history {
+        armature_scvx::IterationTable::row(&mut table, it).unwrap();
+    }
+    let text = String::from_utf8(table).unwrap();
+    assert_eq!(text.lines().count(), 1 + outcome.iterations + 1, "{text}");
+}

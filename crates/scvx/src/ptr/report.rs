@@ -439,11 +439,29 @@ pub struct Timings {
 
 /// The SCvx iteration table (one header, one row per [`Iteration`]), to any writer.
 ///
+/// Columns: the iteration; whether its step was accepted (`yes`, `no`, or `cor` when the
+/// accepted candidate is the step's second-order correction); `ρ`, the merit's actual over
+/// predicted decrease (the trust region's signal: near 1 where the subproblem's model holds,
+/// small where second-order defects eat the step's gain); the discretization's and the
+/// subproblem's wall times; then the record's cost, penalties, defect, violation, trust-region
+/// gradient, λ_tr, interior-point iterations and the subproblem's status.
+///
 /// ```
-/// use armature_scvx::IterationTable;
+/// use armature_scvx::{Iteration, IterationTable, SubproblemStatus};
 /// let mut out = Vec::new();
 /// IterationTable::header(&mut out).unwrap();
-/// assert!(String::from_utf8(out).unwrap().contains("J_vc"));
+/// let it = Iteration {
+///     iteration: 7, accepted: true, cost: 1.25, j_tr: 0.01, j_vc: 0.0, j_vb: 0.0,
+///     max_defect: 1e-3, max_violation: 2e-3, final_time: 1.25, rho: 0.42, predicted: 4e-3,
+///     corrected: true, lam_tr: 0.03, tr_gradient: 1e-3, discretization_ms: 1.0,
+///     subproblem_ms: 13.0, subproblem_iterations: 21, subproblem_status: SubproblemStatus::Solved,
+///     status: None,
+/// };
+/// IterationTable::row(&mut out, &it).unwrap();
+/// let text = String::from_utf8(out).unwrap();
+/// let (header, row) = text.split_once('\n').unwrap();
+/// assert!(header.contains("J_vc") && header.contains('ρ'));
+/// assert!(row.trim_start().starts_with("7 cor   0.420"), "{row}");
 /// ```
 #[derive(Debug, Clone, Copy)]
 pub struct IterationTable;
@@ -456,9 +474,10 @@ impl IterationTable {
     pub fn header(w: &mut impl std::io::Write) -> std::io::Result<()> {
         writeln!(
             w,
-            "{:>4} {:>3} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
+            "{:>4} {:>3} {:>7} {:>8} {:>8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>4}  subproblem",
             "iter",
             "acc",
+            "ρ",
             "disc ms",
             "solve ms",
             "cost",
@@ -480,9 +499,14 @@ impl IterationTable {
     pub fn row(w: &mut impl std::io::Write, it: &Iteration) -> std::io::Result<()> {
         writeln!(
             w,
-            "{:>4} {:>3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
+            "{:>4} {:>3} {:>7.3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
             it.iteration,
-            if it.accepted { "yes" } else { "no" },
+            match (it.accepted, it.corrected) {
+                (false, _) => "no",
+                (true, false) => "yes",
+                (true, true) => "cor",
+            },
+            it.rho,
             it.discretization_ms,
             it.subproblem_ms,
             it.cost,
