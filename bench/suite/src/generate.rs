@@ -40,6 +40,9 @@ pub struct SuiteTask {
     /// Mesh refinement: solved on `task`'s grid, then on the grid `refine` times finer
     /// (`ArmTask::refined`) from that solution (1: once, on `task`'s grid).
     pub refine: usize,
+    /// Retime the converged solution along its path (`ArmTask::retime`) and report, and
+    /// verify, the retimed trajectory.
+    pub retime: bool,
 }
 
 fn lerp(rng: &mut Pcg64Mcg, lo: f64, hi: f64) -> f64 {
@@ -215,6 +218,7 @@ pub fn suite() -> Vec<SuiteTask> {
         balls,
         infeasible: None,
         refine: 1,
+        retime: false,
     };
     out.push(entry("seed", "seed".into(), fixtures::pick_and_place(), Robot::Arm7, vec![]));
     out.push(entry(
@@ -278,6 +282,7 @@ fn infeasible() -> Vec<SuiteTask> {
         balls,
         infeasible: Some(why),
         refine: 1,
+        retime: false,
     };
     vec![
         entry(

@@ -8,6 +8,7 @@
 
 pub mod generate;
 pub mod reference;
+pub mod retimed;
 pub mod run;
 pub mod study;
 pub mod verify;

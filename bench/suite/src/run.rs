@@ -161,12 +161,34 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     out.worst = worst.value;
     out.worst_what = worst.what;
     out.verified = solution.status == PtrStatus::Converged && worst.value <= TOLERANCE;
+    if t.retime && out.verified {
+        retime(t, &solution, &mut out, start);
+    }
     out.solution = Some(NodeSolution {
         times,
         angles: nodes["angle"].clone(),
         torques: nodes["torque"].clone(),
     });
     out
+}
+
+/// The outcome of `solution` retimed along its path (`ArmTask::retime`), verified as such:
+/// its final time, its largest violation, and the retiming's time added to the solve's.
+fn retime(t: &SuiteTask, solution: &Solution, out: &mut Outcome, start: Instant) {
+    match t.task.retime(solution) {
+        Ok(r) => {
+            out.solve_ms = start.elapsed().as_secs_f64() * 1e3;
+            let worst = crate::retimed::verify_retimed(t, &r);
+            out.final_time = r.final_time;
+            out.worst = worst.value;
+            out.worst_what = format!("{} (retimed)", worst.what);
+            out.verified = worst.value <= TOLERANCE;
+        }
+        Err(e) => {
+            out.status = format!("retiming failed: {e}");
+            out.verified = false;
+        }
+    }
 }
 
 /// Plans and solves a task; with `refine > 1`, then its refined task from that solution,

@@ -28,6 +28,8 @@ pub enum TaskItem {
     Collision,
     /// The initial guess (IK, spline).
     Initialization,
+    /// The solution given to [`ArmTask::retime`](crate::ArmTask::retime).
+    Solution,
 }
 
 /// A task that cannot become a problem: what is wrong and which part of the task it is.

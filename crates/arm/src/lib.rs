@@ -11,6 +11,7 @@ mod guess;
 mod multi_start;
 mod plan;
 mod refine;
+mod retime;
 mod task;
 
 pub use error::{ArmError, TaskItem};
@@ -20,6 +21,7 @@ pub use multi_start::{
 };
 pub use plan::{ArmPlan, waypoint_parameter};
 pub use refine::{join_stages, set_refined_guess};
+pub use retime::Retimed;
 pub use task::{
     ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RIGID_BODY_SUBSTEPS,
     TimeWindow, Waypoint,

@@ -218,7 +218,7 @@ fn locate(task: &TaskFile, src: Source<'_>, e: &ArmError) -> LocatedError {
         }
         TaskItem::Table => task.table_height.as_ref().map_or(0, |t| t.span().start),
         TaskItem::Collision => task.collision.as_ref().map_or(0, |c| c.span().start),
-        TaskItem::Nodes | TaskItem::Initialization => 0,
+        TaskItem::Nodes | TaskItem::Initialization | TaskItem::Solution => 0,
     };
     src.error_at(at, e.message.clone())
 }
