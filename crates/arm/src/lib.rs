@@ -9,6 +9,7 @@ pub mod fixtures;
 mod formulation;
 mod guess;
 mod multi_start;
+mod node_tables;
 mod plan;
 mod refine;
 mod retime;

@@ -5,6 +5,8 @@ use std::collections::BTreeMap;
 
 use armature_scvx::{CompiledProblem, ProblemError, Solution};
 
+use crate::node_tables::NodeTables;
+
 type Table = Vec<Vec<f64>>;
 
 /// Sets the guess of `fine` — the same task [`refined`](crate::ArmTask::refined) (or
@@ -85,27 +87,27 @@ impl<'a> Coarse<'a> {
             t.get(name).ok_or_else(|| bad(format!("the coarse solution has no \"{name}\"")))
         };
         let column = |t: &Table| t.iter().filter_map(|r| r.first().copied()).collect::<Vec<_>>();
-        let (nodes, dense) = (&s.nodes, &s.trajectory);
+        let width = s.nodes.get("angle").and_then(|t| t.first()).map_or(0, Vec::len);
+        let nodes = NodeTables::new(s, width).map_err(bad)?;
+        let dense = &s.trajectory;
         let c = Coarse {
-            times: column(table(nodes, "time")?),
-            q: table(nodes, "angle")?,
-            v: table(nodes, "velocity")?,
-            u: table(nodes, "torque")?,
+            times: nodes.times,
+            q: nodes.q,
+            v: nodes.v,
+            u: nodes.u,
             dense_t: column(table(dense, "time")?),
             dq: table(dense, "angle")?,
             dv: table(dense, "velocity")?,
         };
-        let (n, d) = (c.times.len(), c.dense_t.len());
-        let width = c.q.first().map_or(0, Vec::len);
-        let rows_ok = |t: &Table, len: usize| t.len() == len && t.iter().all(|r| r.len() == width);
-        if n < 2 || d < 2 {
-            return Err(bad("the coarse solution needs two nodes and two dense samples or more"));
+        let d = c.dense_t.len();
+        let rows_ok = |t: &Table| t.len() == d && t.iter().all(|r| r.len() == width);
+        if d < 2 {
+            return Err(bad("the coarse solution needs two dense samples or more"));
         }
-        if !(rows_ok(c.q, n) && rows_ok(c.v, n) && rows_ok(c.dq, d) && rows_ok(c.dv, d)) {
-            return Err(bad("the coarse solution's angle and velocity tables differ in shape"));
-        }
-        if c.u.len() != n || c.u.windows(2).any(|w| w[0].len() != w[1].len()) {
-            return Err(bad("the coarse solution's torque table differs in shape"));
+        if !(rows_ok(c.dq) && rows_ok(c.dv)) {
+            return Err(bad(
+                "the coarse solution's dense angle and velocity tables differ in shape",
+            ));
         }
         Ok(c)
     }

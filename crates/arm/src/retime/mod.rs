@@ -8,9 +8,10 @@ mod topp;
 use armature_scvx::Solution;
 use serde::Serialize;
 
-use self::path::{Model, NodeTables};
+use self::path::Model;
 use self::topp::ToppFailure;
 use crate::dynamics::Resolved;
+use crate::node_tables::NodeTables;
 use crate::{ArmError, ArmTask, TaskItem};
 
 /// A trajectory retimed along its path: samples at the points of the retiming grid (about

@@ -2,12 +2,10 @@
 //! derivatives in the solution's own time, by re-integrating the arm's dynamics under the
 //! solution's first-order-hold torques from its initial state (single shooting, RK4).
 
-use std::collections::BTreeMap;
-
 use armature_kinematics::DynamicsWorkspace;
-use armature_scvx::Solution;
 
 use crate::dynamics::Resolved;
+use crate::node_tables::NodeTables;
 
 type Table = Vec<Vec<f64>>;
 
@@ -25,47 +23,6 @@ pub(crate) struct PathSamples {
     pub(crate) dq: Table,
     pub(crate) ddq: Table,
     pub(crate) nodes: Vec<usize>,
-}
-
-/// A solved arm trajectory's node tables.
-pub(crate) struct NodeTables<'a> {
-    pub(crate) times: Vec<f64>,
-    q: &'a Table,
-    v: &'a Table,
-    u: &'a Table,
-}
-
-impl<'a> NodeTables<'a> {
-    /// The `time`, `angle`, `velocity` and `torque` node tables of `s`, checked for shape
-    /// (`n` joints, two nodes or more, increasing finite times, finite values).
-    pub(crate) fn new(s: &'a Solution, n: usize) -> Result<Self, String> {
-        let table = |t: &'a BTreeMap<String, Table>, name: &str| {
-            t.get(name).ok_or_else(|| format!("the solution has no \"{name}\" node table"))
-        };
-        let times: Vec<f64> =
-            table(&s.nodes, "time")?.iter().filter_map(|r| r.first().copied()).collect();
-        let (q, v, u) =
-            (table(&s.nodes, "angle")?, table(&s.nodes, "velocity")?, table(&s.nodes, "torque")?);
-        let fits = |t: &Table| t.len() == times.len() && t.iter().all(|r| r.len() == n);
-        if times.len() < 2 || !(fits(q) && fits(v) && fits(u)) {
-            return Err(format!("the solution's node tables do not fit {n} joints and 2+ nodes"));
-        }
-        // Finite first, so that the comparison below is an order.
-        if !times.iter().all(|t| t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
-            return Err("the solution's node times do not increase".into());
-        }
-        let finite = |t: &Table| t.iter().flatten().all(|x| x.is_finite());
-        if !(finite(q) && finite(v) && finite(u)) {
-            return Err("the solution's node tables hold a non-finite value".into());
-        }
-        Ok(NodeTables { times, q, v, u })
-    }
-
-    /// Whether the first and last nodes are at rest (velocities within 1e-6 rad/s).
-    pub(crate) fn at_rest(&self) -> bool {
-        let still = |v: &[f64]| v.iter().all(|x| x.abs() <= 1e-6);
-        still(&self.v[0]) && still(&self.v[self.v.len() - 1])
-    }
 }
 
 /// `q̈` of the model, with its workspace.
