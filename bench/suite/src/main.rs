@@ -1,13 +1,14 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
-//! [--velocity-peaks true|false] [--history] [--retime]`: solves every task of the suite with
-//! default settings, verifies each independently and prints the table, with T / T_ref where
+//! [--velocity-peaks true|false] [--history] [--no-retime]`: solves every task of the suite
+//! with default settings, retimes each verified solution along its path as the CLI does by
+//! default (`ArmTask::retime`, `[time] retime`), verifies the result independently (the
+//! retimed trajectory by `retimed.rs`) and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
 //! writes the tasks (with armature's guesses and solutions) for `bench/reference/t_ref.py`.
 //! `--history` prints each task's SCvx iteration table (`IterationTable`: ρ, defects,
-//! violations, λ_tr per iteration) before its line, to see how a solve walks. `--retime`
-//! reports each verified solution retimed along its path (`ArmTask::retime`), verified as
-//! such (`retimed.rs`).
+//! violations, λ_tr per iteration) before its line, to see how a solve walks. `--no-retime`
+//! reports the solve's own timing.
 //!
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
@@ -46,7 +47,7 @@ fn main() {
             eprintln!("error: {e}");
             std::process::exit(2);
         });
-    let retime = args.iter().any(|a| a == "--retime");
+    let retime = !args.iter().any(|a| a == "--no-retime");
     let tasks: Vec<_> = tasks.into_iter().map(|t| generate::SuiteTask { retime, ..t }).collect();
     eprintln!("{} tasks", tasks.len());
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");

@@ -12,6 +12,7 @@ pub mod output_set;
 pub mod pipeline;
 pub mod plot;
 pub mod problem_file;
+pub mod retimed;
 pub mod robot_dynamics;
 pub mod settings;
 pub mod streaming;

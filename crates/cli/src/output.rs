@@ -49,6 +49,9 @@ pub struct ResultFile<'a> {
     /// The solution (its keys at the top level).
     #[serde(flatten)]
     pub solution: &'a Solution,
+    /// The solved path retimed (`[time] retime`): what is streamed and shown.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub retimed: Option<&'a crate::retimed::RetimedResult>,
     /// The task's geometry and limits.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scene: Option<&'a crate::view::Scene>,
@@ -70,7 +73,7 @@ pub struct StartsReport {
 }
 
 /// Stages what was asked for in `set`: the JSON result (`-` = standard output, written at
-/// once) and the CSV tables.
+/// once) and the CSV tables (`retimed.csv` with a retimed trajectory).
 ///
 /// # Errors
 /// Serialization or writing failures ([`exit::IO`]).
@@ -96,6 +99,9 @@ pub fn write_solution(
             [("nodes.csv", &solution.nodes), ("trajectory.csv", &solution.trajectory)]
         {
             set.stage(&dir.join(name), csv(table).as_bytes())?;
+        }
+        if let Some(r) = result.retimed {
+            set.stage(&dir.join("retimed.csv"), csv(&r.trajectory).as_bytes())?;
         }
     }
     Ok(())

@@ -310,6 +310,22 @@ fn time_window(task: &TaskFile, src: Source<'_>) -> Result<(f64, f64), LocatedEr
     Ok((t_min, t_max))
 }
 
+/// `[time] retime`: whether to retime the solved path (default: when the time is
+/// minimized).
+///
+/// # Errors
+/// `retime = true` on a task whose time is not minimized.
+pub fn retiming(task: &TaskFile, src: Source<'_>) -> Result<bool, LocatedError> {
+    match &task.time.retime {
+        Some(r) if *r.get_ref() && !task.time.minimize => Err(src.error(
+            r,
+            "retime = true follows the path as fast as the limits allow: it needs minimize = true",
+        )),
+        Some(r) => Ok(*r.get_ref()),
+        None => Ok(task.time.minimize),
+    }
+}
+
 /// `[nodes] refine`: the factor of the mesh refinement (1 when not given), checked against
 /// the node count.
 ///

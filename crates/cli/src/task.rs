@@ -19,6 +19,8 @@
 //!
 //! [time]
 //! max = 4.0                      # free final time in [min, max], minimized by default
+//! # retime = false               # keep the solve's own timing (default: the solved path is
+//!                                # then followed time-optimally within the limits, TOPP-RA)
 //!
 //! [nodes]
 //! per_segment = 2                # waypoint k sits at node k·per_segment (or give `count`)
@@ -227,6 +229,12 @@ pub struct TimeSpec {
     /// Minimize the final time. Default true.
     #[serde(default = "yes")]
     pub minimize: bool,
+    /// After converging, follow the solved path time-optimally within the velocity and
+    /// torque limits (`ArmTask::retime`); the result then carries the retimed trajectory,
+    /// which is what is streamed and shown. Default: `minimize`.
+    #[serde(default)]
+    #[schemars(with = "Option<bool>")]
+    pub retime: Option<Spanned<bool>>,
 }
 
 /// Nodes: a count, or nodes per segment between waypoints (default 2).

@@ -74,16 +74,21 @@ fn listen_receives_every_iteration_and_the_dense_trajectory_bit_for_bit() {
     assert_eq!(lines.last().unwrap()["dense"], true);
     let last = lines.last().unwrap();
     assert_eq!(last["status"], r["status"], "the wire carries the result's status");
-    assert_eq!(last["final_time"], r["final_time"]);
+    // The final trajectory is the retimed one (the demo retimes by default), decimated to
+    // fit one message: every `stride`-th sample and the last.
+    let retimed = &r["retimed"];
+    assert_eq!(last["final_time"], retimed["final_time"]);
     let columns: Vec<&str> =
         last["columns"].as_array().unwrap().iter().map(|c| c.as_str().unwrap()).collect();
     assert_eq!(columns[0], "time");
     let angle0 = columns.iter().position(|c| *c == "angle[0]").unwrap();
     let ee0 = columns.iter().position(|c| *c == "ee_position[0]").unwrap();
     let rows = last["rows"].as_array().unwrap();
-    let dense = &r["trajectory"];
-    assert_eq!(rows.len(), dense["time"].as_array().unwrap().len());
-    for (k, row) in rows.iter().enumerate() {
+    let dense = &retimed["trajectory"];
+    let all = dense["time"].as_array().unwrap().len();
+    let stride = (all - 1).div_ceil(rows.len() - 1);
+    assert_eq!((all - 1).div_ceil(stride) + 1, rows.len(), "{all} samples, {} rows", rows.len());
+    for (row, k) in rows.iter().zip((0..).map(|r| (r * stride).min(all - 1))) {
         assert_eq!(row[0], dense["time"][k][0]);
         for j in 0..7 {
             assert_eq!(row[angle0 + j], dense["angle"][k][j], "row {k} joint {j}");
@@ -162,7 +167,8 @@ fn a_trajectory_too_large_for_one_message_is_streamed_decimated_after_the_result
         "/../../examples/pick-and-place.toml"
     ))
     .unwrap()
-    .replacen("[settings]\n", "[settings]\ndense_dt = 1e-4\n", 1);
+    .replacen("[settings]\n", "[settings]\ndense_dt = 1e-4\n", 1)
+    .replacen("[time]\n", "[time]\nretime = false\n", 1);
     let dir = scratch("stream-big");
     let (task_path, result) = (dir.path().join("task.toml"), dir.path().join("result.json"));
     std::fs::write(&task_path, task).unwrap();

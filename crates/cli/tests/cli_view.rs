@@ -154,8 +154,10 @@ fn read_json(path: &Path) -> Value {
 
 /// The dense instant of the smallest clearance over all pairs: (time, value, pair name).
 fn closest(result: &Value) -> (f64, f64, String) {
-    let times = result["trajectory"]["time"].as_array().unwrap();
-    let rows = result["trajectory"]["clearance"].as_array().unwrap();
+    // The view plays the retimed trajectory when the result has one.
+    let shown = result.get("retimed").unwrap_or(result);
+    let times = shown["trajectory"]["time"].as_array().unwrap();
+    let rows = shown["trajectory"]["clearance"].as_array().unwrap();
     let pairs = result["scene"]["clearance"]["pairs"].as_array().unwrap();
     let mut best = (f64::INFINITY, 0, 0);
     for (k, row) in rows.iter().enumerate() {
@@ -193,7 +195,7 @@ fn the_collision_demo_plays_in_a_browser_and_its_readout_is_the_results() {
     solved(code, &stderr);
     assert_self_contained(&page);
     let result = read_json(&json);
-    let tf = result["final_time"].as_f64().unwrap();
+    let tf = result.get("retimed").unwrap_or(&result)["final_time"].as_f64().unwrap();
     let (t_closest, value, pair) = closest(&result);
     let times = [0.1 * tf, 0.45 * tf, t_closest];
     let opened: Vec<Opened> = times.iter().map(|t| open(&page, &format!("t={t}"))).collect();
@@ -274,7 +276,7 @@ fn view_rejects_what_is_not_a_result_and_writes_nothing() {
     let mut bad_link = read_json(&good);
     bad_link["scene"]["links"][0]["end"] = 99.into();
     let mut no_frame = read_json(&good);
-    no_frame["trajectory"].as_object_mut().unwrap().remove("T_elbow");
+    no_frame["retimed"]["trajectory"].as_object_mut().unwrap().remove("T_elbow");
     let cases = [
         (dir.path().join("missing.json").to_str().unwrap().to_string(), "No such file"),
         (write("syntax.json", "{\n  \"status\": \"converged\",\n  oops\n}"), "syntax.json:3:3:"),

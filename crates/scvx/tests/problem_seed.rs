@@ -32,6 +32,19 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     assert!(!sol.nodes.keys().any(|k| k.starts_with('_')), "internal states are not exposed");
     assert_eq!(sol.nodes["T_ee"][0].len(), 16);
     assert!((sol.nodes["time"][seed::NODES - 1][0] - sol.final_time).abs() < 1e-12);
+    // The outputs evaluated from named states and controls alone (as for a retimed
+    // trajectory) are the dense trajectory's; a missing or ill-shaped series is named.
+    let times: Vec<f64> = sol.trajectory["time"].iter().map(|r| r[0]).collect();
+    let again = compiled.layout().tables_named(&times, &sol.trajectory).unwrap();
+    assert_eq!(again, sol.trajectory);
+    let mut short = sol.trajectory.clone();
+    short.remove("torque");
+    let e = compiled.layout().tables_named(&times, &short).unwrap_err().to_string();
+    assert!(e.contains("torque"), "{e}");
+    short = sol.trajectory.clone();
+    short.get_mut("angle").unwrap()[3].pop();
+    let e = compiled.layout().tables_named(&times, &short).unwrap_err().to_string();
+    assert!(e.contains("`angle` needs"), "{e}");
     // Waypoints from the ee_position output, table and limits on the dense trajectory.
     for (w, p) in fixtures::pick_and_place().waypoints.iter().map(|w| w.position).enumerate() {
         let e = &sol.nodes["ee_position"][2 * w];

@@ -35,9 +35,12 @@ pub struct Retimed {
     pub angle: Vec<Vec<f64>>,
     /// Joint velocities per sample (rad/s).
     pub velocity: Vec<Vec<f64>>,
-    /// Joint accelerations per sample, held until the next sample's (rad/s²).
+    /// Joint accelerations at each sample, with the path acceleration of the interval that
+    /// starts there (rad/s²). The path acceleration is constant over each interval; the
+    /// joints' accelerations vary within it with the path's shape (`q″ṡ² + q′s̈`).
     pub acceleration: Vec<Vec<f64>>,
-    /// Joint torques per sample, until the next sample (N·m).
+    /// Joint torques at each sample, as its acceleration needs them (N·m); within the limits
+    /// there and, by the rows at both ends of every interval, in between.
     pub torque: Vec<Vec<f64>>,
 }
 

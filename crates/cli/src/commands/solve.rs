@@ -11,7 +11,8 @@ use clap::Args;
 
 use crate::output::{ResultFile, StartsReport};
 use crate::output_set::OutputSet;
-use crate::pipeline::{arm_task, plan_arm, refinement};
+use crate::pipeline::{arm_task, plan_arm, refinement, retiming};
+use crate::retimed::RetimedResult;
 use crate::streaming::{Streamer, wire_status};
 use crate::task::{Source, parse};
 use crate::view::{Iterate, Scene, ViewData};
@@ -23,7 +24,8 @@ pub struct OutputArgs {
     /// Write the result as JSON to this file (`-` for standard output).
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
-    /// Write `nodes.csv` and `trajectory.csv` into this folder.
+    /// Write `nodes.csv` and `trajectory.csv` into this folder (and `retimed.csv`, the
+    /// retimed trajectory, when the task retimes).
     #[arg(long)]
     pub csv: Option<PathBuf>,
     /// Write plots (SVG and PNG) into this folder.
@@ -35,8 +37,8 @@ pub struct OutputArgs {
     /// Print nothing but errors (no iteration table, no summary).
     #[arg(short, long)]
     pub quiet: bool,
-    /// Publish every SCvx iterate (nodes and progress) and the final dense trajectory over
-    /// iceoryx2 as run RUN (services `armature/RUN/trajectory` and `armature/RUN/progress`).
+    /// Publish every SCvx iterate (nodes and progress) and the final dense trajectory (the
+    /// retimed one when the task retimes) over iceoryx2 as run RUN (services `armature/RUN/trajectory` and `armature/RUN/progress`).
     #[arg(long, value_name = "RUN")]
     pub stream: Option<String>,
     /// With --stream: keep serving the final trajectory to late subscribers this many seconds.
@@ -81,6 +83,9 @@ pub struct Loaded {
     pub refined: Option<(usize, crate::pipeline::Plan, armature_scvx::CompiledProblem)>,
     /// `[initialization] starts` (1 for a problem file).
     pub starts: usize,
+    /// With `[time] retime` (the default where the time is minimized): the task, to retime
+    /// its solution along the solved path.
+    pub retime: Option<armature_arm::ArmTask>,
 }
 
 /// Parses, checks and compiles a task file or a problem file (recognised by its
@@ -98,13 +103,15 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
         let keypoints = Vec::new();
-        return Ok(Loaded { plan: None, compiled, keypoints, inputs, refined: None, starts: 1 });
+        let (refined, starts, retime) = (None, 1, None);
+        return Ok(Loaded { plan: None, compiled, keypoints, inputs, refined, starts, retime });
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
     let factor = refinement(&task, src).map_err(CliError::bad_input)?;
     let fine = (factor > 1).then(|| arm.refined(factor));
     let starts = arm.initialization.starts;
+    let retime = retiming(&task, src).map_err(CliError::bad_input)?.then(|| arm.clone());
     let plan = plan_arm(&task, src, arm).map_err(CliError::bad_input)?;
     let compile = |plan: &crate::pipeline::Plan| {
         plan.compile().map_err(|e| CliError::bad_input(locate(&task, src, &e)))
@@ -121,7 +128,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
     let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
-    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined, starts })
+    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined, starts, retime })
 }
 
 /// A problem-layer error of a planned task (the task's checks let few through): at the
@@ -160,7 +167,7 @@ fn check_outputs(o: &OutputArgs, inputs: &[PathBuf]) -> Result<(), CliError> {
         o.output.iter().filter(|p| p.as_os_str() != "-").cloned().collect();
     files.extend(o.html.iter().cloned());
     if let Some(dir) = &o.csv {
-        files.extend(["nodes.csv", "trajectory.csv"].map(|n| dir.join(n)));
+        files.extend(["nodes.csv", "trajectory.csv", "retimed.csv"].map(|n| dir.join(n)));
     }
     let files: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
     let dirs: Vec<&Path> = o.csv.iter().chain(&o.plot).map(PathBuf::as_path).collect();
@@ -339,25 +346,72 @@ fn summary(solution: &Solution, t0: Instant) -> Vec<String> {
     lines
 }
 
-/// Writes what `o` asks for: JSON, CSV, plots, the 3D view.
+/// The solve's result, and with a retiming the retimed trajectory and the solution as it
+/// shows it ([`RetimedResult::shown`]).
+#[derive(Debug, Clone, Copy)]
+struct Results<'a> {
+    solution: &'a Solution,
+    shown: Option<&'a Solution>,
+    retimed: Option<&'a RetimedResult>,
+}
+
+/// Writes what `o` asks for: JSON and CSV (the solve's result, and the retimed trajectory
+/// beside it), plots and the 3D view (of the retimed trajectory when there is one).
 fn write_outputs(
     o: &OutputArgs,
     (name, plan): (&str, Option<&crate::pipeline::Plan>),
-    (solution, iterates, starts): (&Solution, Vec<Iterate>, Option<&StartsReport>),
+    r: Results<'_>,
+    (iterates, starts): (Vec<Iterate>, Option<&StartsReport>),
     out: &mut dyn std::io::Write,
 ) -> Result<Vec<PathBuf>, CliError> {
     let scene = plan.map(Scene::from_plan);
-    let result = ResultFile { solution, scene: scene.as_ref(), iterates: &iterates, starts };
+    let result = ResultFile {
+        solution: r.solution,
+        retimed: r.retimed,
+        scene: scene.as_ref(),
+        iterates: &iterates,
+        starts,
+    };
     let mut set = OutputSet::default();
     output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out, &mut set)?;
+    let shown = r.shown.unwrap_or(r.solution);
     if let Some(dir) = &o.plot {
-        crate::plot::write_plots(plan, solution, dir, &mut set)?;
+        crate::plot::write_plots(plan, shown, dir, &mut set)?;
     }
     if let Some(path) = &o.html {
-        let data = ViewData::from_solution(name, solution, scene, iterates);
+        let data = ViewData::from_solution(name, shown, scene, iterates);
         output::write_html(&data, path, &mut set)?;
     }
     set.commit()
+}
+
+/// The converged solution retimed along its path, when the task asks for it (a retiming
+/// that fails is reported, and the solve's own timing kept).
+fn retime_solution(loaded: &Loaded, solution: &Solution, quiet: bool) -> Option<RetimedResult> {
+    let task = loaded.retime.as_ref().filter(|_| solution.converged())?;
+    let t0 = Instant::now();
+    match crate::retimed::retime(task, loaded.compiled.layout(), solution) {
+        Ok(r) => {
+            say(
+                quiet,
+                &format!(
+                    "retimed along the solved path within the velocity and torque limits: final time {:.4} s ({:+.1} %), {} samples, {:.1} ms",
+                    r.final_time,
+                    100.0 * (r.final_time / solution.final_time - 1.0),
+                    r.trajectory["time"].len(),
+                    t0.elapsed().as_secs_f64() * 1e3
+                ),
+            );
+            Some(r)
+        }
+        Err(e) => {
+            say(
+                quiet,
+                &format!("warning: not retimed ({e}); the solve's own timing is the result"),
+            );
+            None
+        }
+    }
 }
 
 /// Success, or the not-converged error saying why.
@@ -397,16 +451,21 @@ pub fn run_task(
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
     }
+    let retimed = retime_solution(&loaded, &solution, o.quiet);
+    // What the plots, the view and the stream's last message show: the retimed trajectory
+    // when there is one.
+    let shown = retimed.as_ref().map(|r| r.shown(&solution));
     let written = write_outputs(
         o,
         (src.name, loaded.plan.as_ref()),
-        (&solution, iterates, starts.as_ref()),
+        Results { solution: &solution, shown: shown.as_ref(), retimed: retimed.as_ref() },
+        (iterates, starts.as_ref()),
         out,
     )?;
     for p in &written {
         say(o.quiet, &format!("wrote {}", p.display()));
     }
-    publish_final(&mut streamer, &solution, o.quiet)?;
+    publish_final(&mut streamer, shown.as_ref().unwrap_or(&solution), o.quiet)?;
     // Last: serve late subscribers (the summary and the files are already out).
     if let Some(s) = &streamer
         && o.linger > 0.0

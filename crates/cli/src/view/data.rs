@@ -43,7 +43,22 @@ pub struct ViewData {
     /// The guess and the intermediate iterates, if the result holds them.
     #[serde(default)]
     pub iterates: Vec<Iterate>,
+    /// A result file's retimed trajectory, read in place of the solve's own (not embedded).
+    #[serde(default, skip_serializing)]
+    pub retimed: Option<RetimedView>,
 }
+
+/// The part of a result file's `retimed` the view reads.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct RetimedView {
+    /// Its final time (s).
+    pub final_time: f64,
+    /// Its samples.
+    pub trajectory: BTreeMap<String, Vec<Vec<f64>>>,
+}
+
+/// The most samples a page embeds (see [`ViewData::thinned`]).
+const MAX_SAMPLES: usize = 600;
 
 /// Series the page reads when it has a scene (the keypoint frames come on top).
 const SCENE_SERIES: [&str; 7] =
@@ -69,6 +84,7 @@ impl ViewData {
             trajectory: solution.trajectory.clone(),
             scene,
             iterates,
+            retimed: None,
         };
         data.pruned()
     }
@@ -92,6 +108,10 @@ impl ViewData {
             let reason = e.to_string();
             format!("{name}:{}:{}: {}", e.line(), e.column(), reason.trim_end_matches(&at))
         })?;
+        // A retimed result plays back as it is streamed: the retimed trajectory.
+        if let Some(r) = data.retimed.take() {
+            (data.final_time, data.trajectory) = (r.final_time, r.trajectory);
+        }
         if data.source.is_empty() {
             data.source = name.to_string();
         }
@@ -109,6 +129,30 @@ impl ViewData {
                 .chain(scene.keypoints.iter().map(|k| k.frame.clone()))
                 .collect();
             self.trajectory.retain(|k, _| keep.contains(k));
+        }
+        self.thinned()
+    }
+
+    /// At most [`MAX_SAMPLES`] samples (a retimed trajectory has about 2000; the page plays
+    /// a few hundred as smoothly): every `stride`-th, the last, and the closest approach
+    /// (the smallest `clearance`, which `#t=closest` and the readout show).
+    fn thinned(mut self) -> ViewData {
+        let n = self.trajectory.get("time").map_or(0, Vec::len);
+        if n <= MAX_SAMPLES {
+            return self;
+        }
+        let stride = (n - 1).div_ceil(MAX_SAMPLES - 2);
+        let closest = self.trajectory.get("clearance").and_then(|rows| {
+            let smallest = |r: &Vec<f64>| r.iter().copied().fold(f64::INFINITY, f64::min);
+            (0..rows.len()).min_by(|&a, &b| smallest(&rows[a]).total_cmp(&smallest(&rows[b])))
+        });
+        let keep = |i: usize| i.is_multiple_of(stride) || i == n - 1 || Some(i) == closest;
+        for rows in self.trajectory.values_mut() {
+            let mut i = 0;
+            rows.retain(|_| {
+                i += 1;
+                keep(i - 1)
+            });
         }
         self
     }
@@ -172,5 +216,42 @@ impl ViewData {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_trajectory_is_thinned_keeping_its_ends_and_closest_approach() {
+        let n = 2007;
+        let time: Vec<Vec<f64>> = (0..n).map(|i| vec![i as f64 * 1e-3]).collect();
+        let clearance: Vec<Vec<f64>> =
+            (0..n).map(|i| vec![1.0, if i == 1001 { -0.5 } else { 0.1 }]).collect();
+        let data = ViewData {
+            source: String::new(),
+            status: "converged".into(),
+            final_time: 2.006,
+            iterations: 1,
+            max_violation: None,
+            trajectory: [("time".to_string(), time), ("clearance".to_string(), clearance)]
+                .into_iter()
+                .collect(),
+            scene: None,
+            iterates: Vec::new(),
+            retimed: None,
+        }
+        .thinned();
+        let t = &data.trajectory["time"];
+        assert!(t.len() <= MAX_SAMPLES && t.len() > MAX_SAMPLES / 2, "{}", t.len());
+        assert_eq!(data.trajectory["clearance"].len(), t.len());
+        assert_eq!(t[0][0], 0.0);
+        assert_eq!(t[t.len() - 1][0], 2006.0 * 1e-3);
+        assert!(t.iter().any(|r| r[0] == 1001.0 * 1e-3), "the closest approach is kept");
+        assert!(data.trajectory["clearance"].iter().any(|r| r[1] == -0.5));
+        // A short one is left alone.
+        let short = ViewData { trajectory: data.trajectory.clone(), ..data.clone() }.thinned();
+        assert_eq!(short.trajectory, data.trajectory);
     }
 }

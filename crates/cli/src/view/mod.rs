@@ -10,7 +10,7 @@
 mod data;
 mod scene;
 
-pub use data::{Iterate, ViewData};
+pub use data::{Iterate, RetimedView, ViewData};
 pub use scene::{
     JointLimits, Scene, SceneClearance, SceneKeypoint, SceneLink, SceneObstacle, SceneOrientation,
     SceneShape, SceneWaypoint, THIN_LINK_RADIUS,
@@ -53,6 +53,7 @@ mod tests {
             trajectory,
             scene: None,
             iterates: Vec::new(),
+            retimed: None,
         }
     }
 

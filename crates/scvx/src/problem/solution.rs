@@ -115,6 +115,43 @@ impl SolutionLayout {
         Ok(t)
     }
 
+    /// Name → rows for samples given by name (e.g. a trajectory retimed outside the solver):
+    /// every state and control of the layout is read from `series` (one row of its width
+    /// per sample), the CTCS integrals are zero, and every output is evaluated, as
+    /// [`tables`](Self::tables) does. Series of `series` the layout does not name are left
+    /// out.
+    ///
+    /// # Errors
+    /// A state or control missing from `series`, or with a row count or width that does not
+    /// fit; an output evaluation failure.
+    pub fn tables_named(
+        &self,
+        times: &[f64],
+        series: &BTreeMap<String, Vec<Vec<f64>>>,
+    ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        let fill = |blocks: &[Block], width: usize| -> Result<Vec<f64>, ProblemError> {
+            let mut flat = vec![0.0; times.len() * width];
+            for b in blocks {
+                let rows = series
+                    .get(&b.name)
+                    .ok_or_else(|| bad("trajectory", format!("no series `{}`", b.name)))?;
+                if rows.len() != times.len() || rows.iter().any(|r| r.len() != b.size) {
+                    return Err(bad(
+                        "trajectory",
+                        format!("`{}` needs {} rows of {}", b.name, times.len(), b.size),
+                    ));
+                }
+                for (row, r) in flat.chunks_mut(width.max(1)).zip(rows) {
+                    row[b.offset..b.offset + b.size].copy_from_slice(r);
+                }
+            }
+            Ok(flat)
+        };
+        let x = fill(&self.states, self.n)?;
+        let u = fill(&self.controls, self.m)?;
+        self.tables(times, &x, &u)
+    }
+
     /// Named tables of a nodal trajectory (e.g. the current iterate in an observer).
     ///
     /// # Errors
