@@ -199,6 +199,15 @@ fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>), String> {
     let plan = t.task.plan().map_err(|e| text(&e))?;
     let coarse = match t.task.initialization.starts {
         0 | 1 => plan.compile().and_then(|mut c| c.solve()).map_err(|e| text(&e))?,
+        // Retiming, the kept start is the one whose path retimed is fastest (as the CLI's).
+        starts if t.retime => {
+            let compile = |s| plan.time_scaled(s).compile();
+            let (mut ends, _) = armature_arm::solve_starts(0, starts, compile);
+            let time =
+                |_: usize, s: &Solution| t.task.retime(s).map_or(s.final_time, |r| r.final_time);
+            let kept = armature_arm::best_start_by(&ends, time).unwrap_or(0);
+            ends.swap_remove(kept).map_err(|e| text(&e))?
+        }
         starts => plan.solve_multi_start(starts).map_err(|e| text(&e))?.best,
     };
     if t.refine <= 1 || coarse.status != PtrStatus::Converged {

@@ -17,7 +17,7 @@ mod task;
 
 pub use error::{ArmError, TaskItem};
 pub use multi_start::{
-    MultiStart, StartOutcome, StartSummary, best_start, scale_timing, solve_starts,
+    MultiStart, StartOutcome, StartSummary, best_start, best_start_by, scale_timing, solve_starts,
     solve_starts_with, start_time_scale, summarize,
 };
 pub use plan::{ArmPlan, waypoint_parameter};

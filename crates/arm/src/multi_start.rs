@@ -128,13 +128,23 @@ pub fn summarize(time_scale: f64, end: Result<&Solution, &ProblemError>) -> Star
 /// Which of the starts' ends to keep (`None` when every start failed): the converged
 /// solution of least final time; without one, the solution whose largest violation is least.
 pub fn best_start(ends: &[Result<Solution, ProblemError>]) -> Option<usize> {
-    let rank = |s: &Solution| {
+    best_start_by(ends, |_, s| s.final_time)
+}
+
+/// As [`best_start`], the converged solutions ranked by `final_time(i, solution)` instead of
+/// their own final time: e.g. the final time of start `i`'s path retimed
+/// ([`crate::ArmTask::retime`]), which is what a retiming caller delivers.
+pub fn best_start_by(
+    ends: &[Result<Solution, ProblemError>],
+    final_time: impl Fn(usize, &Solution) -> f64,
+) -> Option<usize> {
+    let rank = |i: usize, s: &Solution| {
         let violation = s.max_violation.as_ref().map_or(0.0, |v| v.value);
-        if s.status == PtrStatus::Converged { (0, s.final_time) } else { (1, violation) }
+        if s.status == PtrStatus::Converged { (0, final_time(i, s)) } else { (1, violation) }
     };
     ends.iter()
         .enumerate()
-        .filter_map(|(i, s)| s.as_ref().ok().map(|s| (i, rank(s))))
+        .filter_map(|(i, s)| s.as_ref().ok().map(|s| (i, rank(i, s))))
         .min_by(|a, b| a.1.0.cmp(&b.1.0).then(a.1.1.total_cmp(&b.1.1)))
         .map(|(i, _)| i)
 }

@@ -1,7 +1,7 @@
 //! Several starts of one task: the guess's timing scaled per start, solved in parallel, the
 //! fastest converged solution kept.
 
-use armature_arm::{StartOutcome, best_start, fixtures, start_time_scale};
+use armature_arm::{StartOutcome, best_start, best_start_by, fixtures, start_time_scale};
 use armature_scvx::{ProblemError, PtrStatus, Solution, Time};
 
 fn free_time(time: &Time) -> f64 {
@@ -68,6 +68,11 @@ fn best_start_prefers_converged_then_the_least_violation() {
     assert_eq!(best_start(&ends), Some(2));
     assert_eq!(best_start(&[failed(), failed()]), None);
     assert_eq!(best_start(&[]), None);
+    // Ranked by another final time (a retiming's): the converged start it calls fastest.
+    let ends = [with(converged, 1.2, 0.0), with(converged, 1.3, 0.0), with(stalled, 0.5, 0.0)];
+    let retimed = [1.15, 1.1, 0.4];
+    assert_eq!(best_start_by(&ends, |i, _| retimed[i]), Some(1));
+    assert_eq!(best_start_by(&ends, |_, s| s.final_time), best_start(&ends));
 }
 
 /// `solve_starts_with` hands each start's compiled problem to the caller's solve: watching

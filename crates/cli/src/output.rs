@@ -70,6 +70,10 @@ pub struct StartsReport {
     pub kept: usize,
     /// Every start, in order (`final_time` is null for a start that ended in an error).
     pub each: Vec<armature_arm::StartSummary>,
+    /// With `[time] retime`: each start's final time once retimed along its path (null for
+    /// a start that did not converge); the kept start is the least of these.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub retimed_final_times: Vec<Option<f64>>,
 }
 
 /// Stages what was asked for in `set`: the JSON result (`-` = standard output, written at

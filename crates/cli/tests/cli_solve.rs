@@ -424,12 +424,26 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
         let t = line.split("T = ").nth(1).and_then(|r| r.split(' ').next()).unwrap();
         t.parse().unwrap()
     };
+    // The task retimes (the default): the kept start is the converged one whose path
+    // retimed is fastest, and its retiming is the result's.
+    let retimed_of = |line: &str| -> f64 {
+        let t = line.split("(retimed ").nth(1).and_then(|r| r.split(' ').next()).unwrap();
+        t.parse().unwrap()
+    };
     let kept = starts.iter().find(|l| l.ends_with("(kept)")).unwrap();
     let converged = starts.iter().filter(|l| l.contains("): converged, "));
-    assert!(converged.clone().all(|l| t_of(kept) <= t_of(l)), "{stderr}");
+    assert!(converged.clone().all(|l| retimed_of(kept) <= retimed_of(l)), "{stderr}");
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let written = r["final_time"].as_f64().unwrap();
     assert!((written - t_of(kept)).abs() < 1e-4, "{written} vs {kept}");
+    let retimed = r["retimed"]["final_time"].as_f64().unwrap();
+    assert!((retimed - retimed_of(kept)).abs() < 1e-4, "{retimed} vs {kept}");
+    let listed = r["starts"]["retimed_final_times"].as_array().unwrap();
+    for (line, t) in starts.iter().zip(listed) {
+        if let Some(t) = t.as_f64() {
+            assert!((t - retimed_of(line)).abs() < 1e-4, "{line} vs {t}");
+        }
+    }
     // The JSON carries the same report: each start's scale, status and T, and the kept one.
     let each = r["starts"]["each"].as_array().unwrap();
     assert_eq!(each.len(), 2, "{}", r["starts"]);

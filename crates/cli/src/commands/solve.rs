@@ -38,7 +38,8 @@ pub struct OutputArgs {
     #[arg(short, long)]
     pub quiet: bool,
     /// Publish every SCvx iterate (nodes and progress) and the final dense trajectory (the
-    /// retimed one when the task retimes) over iceoryx2 as run RUN (services `armature/RUN/trajectory` and `armature/RUN/progress`).
+    /// retimed one when the task retimes) over iceoryx2 as run RUN (services
+    /// `armature/RUN/trajectory` and `armature/RUN/progress`).
     #[arg(long, value_name = "RUN")]
     pub stream: Option<String>,
     /// With --stream: keep serving the final trajectory to late subscribers this many seconds.
@@ -479,8 +480,7 @@ pub fn run_task(
 
 /// The observed solve from the task's guess, and with `[initialization] starts = K > 1`
 /// the other K − 1 starts beside it ([`armature_arm::solve_starts_with`], their iterates
-/// recorded), the best kept ([`armature_arm::best_start`]) and every start reported in a
-/// line. The iteration table and the streamed iterates are the first start's; the iterates
+/// recorded), the best kept ([`choose_start`]) and every start reported in a line. The iteration table and the streamed iterates are the first start's; the iterates
 /// the 3D view draws, the result written, streamed at the end and refined are the kept
 /// start's.
 fn solve_starts(
@@ -520,24 +520,7 @@ fn solve_starts(
             .chain(summaries)
             .collect();
     let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
-    let chosen = armature_arm::best_start(&ends).unwrap_or(0);
-    for (i, s) in summaries.iter().enumerate() {
-        let outcome = match &s.outcome {
-            armature_arm::StartOutcome::Solved(status) => status.to_string(),
-            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
-        };
-        let kept = if i == chosen { " (kept)" } else { "" };
-        say(
-            quiet,
-            &format!(
-                "start {} (guess timing × {:.2}): {outcome}, T = {:.4} s, {} iterations{kept}",
-                i + 1,
-                s.time_scale,
-                s.final_time,
-                s.iterations
-            ),
-        );
-    }
+    let (chosen, retimed) = choose_start(loaded, &ends, &summaries, quiet);
     if chosen != 0 {
         // The guess, then the kept start's iterates.
         iterates.truncate(1);
@@ -545,8 +528,52 @@ fn solve_starts(
         iterates.extend(kept.and_then(Result::ok).unwrap_or_default());
     }
     let best = ends.swap_remove(chosen).map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
-    let starts = Some(StartsReport { kept: chosen, each: summaries });
+    let starts = Some(StartsReport { kept: chosen, each: summaries, retimed_final_times: retimed });
     Ok(Solved { solution: best, iterates, starts })
+}
+
+/// Which start to keep, each reported in a line: the converged one of least final time —
+/// once retimed along its path when the task retimes ([`armature_arm::best_start_by`]; a
+/// start whose retiming fails counts with its own final time). Also each start's retimed
+/// final time (empty without retiming).
+fn choose_start(
+    loaded: &Loaded,
+    ends: &[Result<Solution, armature_scvx::ProblemError>],
+    summaries: &[armature_arm::StartSummary],
+    quiet: bool,
+) -> (usize, Vec<Option<f64>>) {
+    let retimed: Vec<Option<f64>> = match &loaded.retime {
+        Some(task) => ends
+            .iter()
+            .map(|e| {
+                let s = e.as_ref().ok().filter(|s| s.converged())?;
+                task.retime(s).ok().map(|r| r.final_time)
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let time = |i: usize, s: &Solution| retimed.get(i).copied().flatten().unwrap_or(s.final_time);
+    let chosen = armature_arm::best_start_by(ends, time).unwrap_or(0);
+    for (i, s) in summaries.iter().enumerate() {
+        let outcome = match &s.outcome {
+            armature_arm::StartOutcome::Solved(status) => status.to_string(),
+            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
+        };
+        let again = retimed.get(i).copied().flatten();
+        let again = again.map_or(String::new(), |t| format!(" (retimed {t:.4} s)"));
+        let kept = if i == chosen { " (kept)" } else { "" };
+        say(
+            quiet,
+            &format!(
+                "start {} (guess timing × {:.2}): {outcome}, T = {:.4} s{again}, {} iterations{kept}",
+                i + 1,
+                s.time_scale,
+                s.final_time,
+                s.iterations
+            ),
+        );
+    }
+    (chosen, retimed)
 }
 
 /// What a task's solve hands to the outputs: the solution, the iterates the 3D view draws,
