@@ -54,7 +54,7 @@
 //!                                # "sequential" / "parallel" node by node
 //! restarts = 8                   # random configurations solved from at each waypoint
 //! starts = 1                     # solves from the guess's timing scaled by 1, 0.7, 1.4, …
-//!                                # in parallel, the best kept
+//!                                # in parallel, the fastest kept (retimed)
 //!
 //! [settings]                     # armature_scvx::PtrSettings, every field optional
 //! max_iterations = 200
