@@ -9,10 +9,17 @@ use crate::node_tables::NodeTables;
 
 type Table = Vec<Vec<f64>>;
 
-/// Grid points of the path over the whole solution (at least [`MIN_STEPS`] per segment).
+/// Grid points of the path over the whole solution (at least [`MIN_STEPS`] per segment),
+/// before the first and last segments are refined ([`REST_REFINEMENT`]).
 pub(crate) const POINTS: usize = 2000;
 /// RK4 steps per segment at least.
 const MIN_STEPS: usize = 4;
+/// How much finer the first and last segments are sampled: where the path starts and ends at
+/// rest its tangent vanishes, the retimed motion spends long between samples there, and the
+/// torque between two samples strays further from its values at them (with the grid of the
+/// other segments, one refined suite task needed 1.3e-3 N·m over a limit between two samples
+/// 6 ms before the end; BENCHMARKS.md).
+const REST_REFINEMENT: usize = 4;
 
 /// The path on its grid: the parameter `σ` (the solution's time), `q(σ)`, `q′(σ)`, `q″(σ)`,
 /// and the grid index of each node.
@@ -88,9 +95,10 @@ pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>) -> PathSampl
     for k in 0..nodes.times.len() - 1 {
         let (t0, h) = (nodes.times[k], nodes.times[k + 1] - nodes.times[k]);
         let steps = ((h / total * POINTS as f64).ceil() as usize).max(MIN_STEPS);
-        let dt = h / steps as f64;
-        for i in 0..steps {
-            let s = t0 + i as f64 * dt;
+        let rest = (k == 0, k + 2 == nodes.times.len());
+        let cuts = segment_grid(t0, h, steps, rest);
+        for (i, w) in cuts.windows(2).enumerate() {
+            let (s, dt) = (w[0], w[1] - w[0]);
             // RK4 on (q, q̇), its position stages written out:
             // k2 at (q + ½h·q̇, q̇ + ½h·k1), k3 at (q + ½h·q̇ + ¼h²·k1, q̇ + ½h·k2),
             // k4 at (q + h·q̇ + ½h²·k2, q̇ + h·k3).
@@ -111,12 +119,37 @@ pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>) -> PathSampl
                 q[j] += dt * qd[j] + dt * dt / 6.0 * (k1[j] + k2[j] + k3[j]);
                 qd[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
             }
-            let end = if i + 1 == steps { nodes.times[k + 1] } else { s + dt };
+            let end = if i + 2 == cuts.len() { nodes.times[k + 1] } else { w[1] };
             push(&mut out, model, end, &q, &qd);
         }
         out.nodes.push(out.sigma.len() - 1);
     }
     out
+}
+
+/// The grid of a segment from `t0` lasting `h`: `steps` equal steps, except that the quarter
+/// next to an end at rest (`rest`: at the segment's start, at its end) is [`REST_REFINEMENT`]
+/// times finer. Its points, both ends included.
+fn segment_grid(t0: f64, h: f64, steps: usize, rest: (bool, bool)) -> Vec<f64> {
+    let quarter = steps.div_ceil(4);
+    // (length, steps) of the three parts: the quarter at the start, the middle, the quarter
+    // at the end.
+    let part =
+        |at_rest: bool| if at_rest { (0.25 * h, quarter * REST_REFINEMENT) } else { (0.0, 0) };
+    let (first, last) = (part(rest.0), part(rest.1));
+    let middle = (
+        h - first.0 - last.0,
+        steps - if rest.0 { quarter } else { 0 } - if rest.1 { quarter } else { 0 },
+    );
+    let mut cuts = vec![t0];
+    let mut at = t0;
+    for (len, n) in [first, middle, last] {
+        for i in 1..=n {
+            cuts.push(at + len * i as f64 / n as f64);
+        }
+        at += len;
+    }
+    cuts
 }
 
 /// The first-order-hold torques of segment `k` at time `s` into `out`.
@@ -125,5 +158,38 @@ fn torque_at(nodes: &NodeTables<'_>, k: usize, s: f64, out: &mut [f64]) {
     let w = ((s - t0) / (t1 - t0)).clamp(0.0, 1.0);
     for (j, o) in out.iter_mut().enumerate() {
         *o = (1.0 - w) * nodes.u[k][j] + w * nodes.u[k + 1][j];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segments_at_rest_are_sampled_finer_in_their_quarter_next_to_the_rest() {
+        for (steps, rest) in
+            [(4, (true, true)), (5, (true, false)), (40, (false, true)), (9, (false, false))]
+        {
+            let cuts = segment_grid(2.0, 0.5, steps, rest);
+            assert_eq!(cuts[0], 2.0);
+            assert!((cuts[cuts.len() - 1] - 2.5).abs() < 1e-15, "{cuts:?}");
+            assert!(cuts.windows(2).all(|w| w[1] > w[0]), "{cuts:?}");
+            let widest = cuts.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+            let quarter = steps.div_ceil(4);
+            let extra =
+                (usize::from(rest.0) + usize::from(rest.1)) * quarter * (REST_REFINEMENT - 1);
+            assert_eq!(cuts.len(), steps + extra + 1, "{steps} {rest:?}");
+            // The first (last) step next to a rest end is REST_REFINEMENT times finer than
+            // the quarter's share of the segment would be at the base density.
+            let base = 0.25 * 0.5 / quarter as f64;
+            if rest.0 {
+                assert!((cuts[1] - cuts[0] - base / REST_REFINEMENT as f64).abs() < 1e-15);
+            }
+            if rest.1 {
+                let n = cuts.len();
+                assert!((cuts[n - 1] - cuts[n - 2] - base / REST_REFINEMENT as f64).abs() < 1e-12);
+            }
+            assert!(widest <= 0.5 / (steps - 2 * quarter).max(1) as f64 + 1e-15);
+        }
     }
 }

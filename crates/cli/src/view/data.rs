@@ -133,7 +133,7 @@ impl ViewData {
         self.thinned()
     }
 
-    /// At most [`MAX_SAMPLES`] samples (a retimed trajectory has about 2000; the page plays
+    /// At most [`MAX_SAMPLES`] samples (a retimed trajectory has about 2500; the page plays
     /// a few hundred as smoothly): every `stride`-th, the last, and the closest approach
     /// (the smallest `clearance`, which `#t=closest` and the readout show).
     fn thinned(mut self) -> ViewData {
