@@ -10,15 +10,15 @@ use crate::node_tables::NodeTables;
 type Table = Vec<Vec<f64>>;
 
 /// Grid points of the path over the whole solution (at least [`MIN_STEPS`] per segment),
-/// before the first and last segments are refined ([`REST_REFINEMENT`]).
+/// before the ends at rest are refined ([`REST_REFINEMENT`]).
 pub(crate) const POINTS: usize = 2000;
 /// RK4 steps per segment at least.
 const MIN_STEPS: usize = 4;
-/// How much finer the first and last segments are sampled: where the path starts and ends at
-/// rest its tangent vanishes, the retimed motion spends long between samples there, and the
-/// torque between two samples strays further from its values at them (with the grid of the
-/// other segments, one refined suite task needed 1.3e-3 N·m over a limit between two samples
-/// 6 ms before the end; BENCHMARKS.md).
+/// How much finer the quarter of the first and last segments next to the rest is sampled:
+/// where the path starts and ends at rest its tangent vanishes, the retimed motion spends long
+/// between samples there, and the torque between two samples strays further from its values
+/// at them (sampled as the other segments, one refined suite task needed 1.3e-3 N·m over a
+/// limit between two samples 6 ms before the end; BENCHMARKS.md).
 const REST_REFINEMENT: usize = 4;
 
 /// The path on its grid: the parameter `σ` (the solution's time), `q(σ)`, `q′(σ)`, `q″(σ)`,
