@@ -77,7 +77,8 @@ pub struct StartsReport {
 }
 
 /// Stages what was asked for in `set`: the JSON result (`-` = standard output, written at
-/// once) and the CSV tables (`retimed.csv` with a retimed trajectory).
+/// once) and the CSV tables (`retimed.csv` with a retimed trajectory; without one, a
+/// `retimed.csv` already in the folder is removed on commit).
 ///
 /// # Errors
 /// Serialization or writing failures ([`exit::IO`]).
@@ -104,8 +105,10 @@ pub fn write_solution(
         {
             set.stage(&dir.join(name), csv(table).as_bytes())?;
         }
-        if let Some(r) = result.retimed {
-            set.stage(&dir.join("retimed.csv"), csv(&r.trajectory).as_bytes())?;
+        // Without a retimed trajectory, an earlier run's `retimed.csv` goes.
+        match result.retimed {
+            Some(r) => set.stage(&dir.join("retimed.csv"), csv(&r.trajectory).as_bytes())?,
+            None => set.retire(&dir.join("retimed.csv")),
         }
     }
     Ok(())

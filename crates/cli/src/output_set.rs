@@ -125,6 +125,9 @@ struct Staged {
 #[derive(Debug, Default)]
 pub struct OutputSet {
     staged: Vec<Staged>,
+    /// Files of the set's kind that this run does not write: removed on commit, so a folder
+    /// of outputs holds this run's files only (e.g. `retimed.csv` of an earlier run).
+    retired: Vec<PathBuf>,
 }
 
 impl OutputSet {
@@ -159,8 +162,16 @@ impl OutputSet {
         written.map_err(|e| io_error(dest, e))
     }
 
-    /// Renames every staged file into place, each destination folder locked meanwhile;
-    /// returns the destinations as given to the stage calls (symlinks resolved).
+    /// Marks `dest` as a file this run does not write: if it exists when the set is
+    /// committed (every rename done), it is removed — an earlier run's output must not pass
+    /// for this run's. Nothing happens to it if the set is dropped uncommitted.
+    pub fn retire(&mut self, dest: &Path) {
+        self.retired.push(dest.to_path_buf());
+    }
+
+    /// Renames every staged file into place, each destination folder locked meanwhile, then
+    /// removes the retired files ([`retire`](Self::retire)); returns the destinations as
+    /// given to the stage calls (symlinks resolved).
     ///
     /// # Errors
     /// An [`exit::IO`] error naming the destination a rename failed for (the ones before it
@@ -196,7 +207,16 @@ impl OutputSet {
             let _ = std::fs::remove_file(&s.tmp);
         }
         forget(&mut tmps, &staged);
-        failure.map_or(Ok(done), Err)
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        for r in &self.retired {
+            match std::fs::remove_file(r) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io_error(r, e)),
+                _ => {}
+            }
+        }
+        Ok(done)
     }
 }
 
@@ -228,6 +248,25 @@ mod tests {
             .collect();
         v.sort();
         v
+    }
+
+    #[test]
+    fn retired_files_go_on_commit_only() {
+        let d = scratch("retire");
+        std::fs::write(d.join("stale.csv"), "old").unwrap();
+        let mut set = OutputSet::default();
+        set.stage(&d.join("a.csv"), b"new").unwrap();
+        set.retire(&d.join("stale.csv"));
+        set.retire(&d.join("never-there.csv"));
+        drop(set);
+        assert_eq!(listing(&d), ["stale.csv"], "dropped: nothing removed");
+        let mut set = OutputSet::default();
+        set.stage(&d.join("a.csv"), b"new").unwrap();
+        set.retire(&d.join("stale.csv"));
+        set.retire(&d.join("never-there.csv"));
+        assert_eq!(set.commit().unwrap(), [d.join("a.csv")]);
+        assert_eq!(listing(&d), ["a.csv"]);
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
