@@ -254,17 +254,16 @@ mod tests {
     fn retired_files_go_on_commit_only() {
         let d = scratch("retire");
         std::fs::write(d.join("stale.csv"), "old").unwrap();
-        let mut set = OutputSet::default();
-        set.stage(&d.join("a.csv"), b"new").unwrap();
-        set.retire(&d.join("stale.csv"));
-        set.retire(&d.join("never-there.csv"));
-        drop(set);
+        let set = || {
+            let mut set = OutputSet::default();
+            set.stage(&d.join("a.csv"), b"new").unwrap();
+            set.retire(&d.join("stale.csv"));
+            set.retire(&d.join("never-there.csv"));
+            set
+        };
+        drop(set());
         assert_eq!(listing(&d), ["stale.csv"], "dropped: nothing removed");
-        let mut set = OutputSet::default();
-        set.stage(&d.join("a.csv"), b"new").unwrap();
-        set.retire(&d.join("stale.csv"));
-        set.retire(&d.join("never-there.csv"));
-        assert_eq!(set.commit().unwrap(), [d.join("a.csv")]);
+        assert_eq!(set().commit().unwrap(), [d.join("a.csv")]);
         assert_eq!(listing(&d), ["a.csv"]);
         let _ = std::fs::remove_dir_all(&d);
     }
