@@ -37,7 +37,17 @@ pub fn retime(
     layout: &SolutionLayout,
     solution: &Solution,
 ) -> Result<RetimedResult, String> {
-    let r = task.retime(solution).map_err(|e| e.to_string())?;
+    with_outputs(layout, task.retime(solution).map_err(|e| e.to_string())?)
+}
+
+/// The retiming `r` with the task's outputs evaluated on its samples by `layout`.
+///
+/// # Errors
+/// The outputs' evaluation, as text.
+pub fn with_outputs(
+    layout: &SolutionLayout,
+    r: armature_arm::Retimed,
+) -> Result<RetimedResult, String> {
     let mut named: Tables = BTreeMap::new();
     named.insert("angle".into(), r.angle);
     named.insert("velocity".into(), r.velocity);
@@ -69,11 +79,17 @@ impl RetimedResult {
             .iter()
             .map(|(name, rows)| (name.clone(), at.iter().map(|&i| rows[i].clone()).collect()))
             .collect();
+        // Field by field: the solve's own node and dense tables are not copied to be dropped.
         Solution {
+            status: solution.status,
             final_time: self.final_time,
+            iterations: solution.iterations,
             nodes,
             trajectory: self.trajectory.clone(),
-            ..solution.clone()
+            history: solution.history.clone(),
+            timings: solution.timings,
+            violations: solution.violations.clone(),
+            max_violation: solution.max_violation.clone(),
         }
     }
 }

@@ -387,11 +387,21 @@ fn write_outputs(
 }
 
 /// The converged solution retimed along its path, when the task asks for it (a retiming
-/// that fails is reported, and the solve's own timing kept).
-fn retime_solution(loaded: &Loaded, solution: &Solution, quiet: bool) -> Option<RetimedResult> {
+/// that fails is reported, and the solve's own timing kept); `done`: its retiming, when
+/// choosing among starts already did it.
+fn retime_solution(
+    loaded: &Loaded,
+    (solution, done): (&Solution, Option<armature_arm::Retimed>),
+    quiet: bool,
+) -> Option<RetimedResult> {
     let task = loaded.retime.as_ref().filter(|_| solution.converged())?;
     let t0 = Instant::now();
-    match crate::retimed::retime(task, loaded.compiled.layout(), solution) {
+    let layout = loaded.compiled.layout();
+    let retimed = match done {
+        Some(r) => crate::retimed::with_outputs(layout, r),
+        None => crate::retimed::retime(task, layout, solution),
+    };
+    match retimed {
         Ok(r) => {
             say(
                 quiet,
@@ -447,12 +457,12 @@ pub fn run_task(
     check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
-    let Solved { solution, iterates, starts } =
+    let Solved { solution, iterates, starts, retimed } =
         solve_stages(&mut loaded, &mut streamer, (src, o.quiet))?;
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
     }
-    let retimed = retime_solution(&loaded, &solution, o.quiet);
+    let retimed = retime_solution(&loaded, (&solution, retimed), o.quiet);
     // What the plots, the view and the stream's last message show: the retimed trajectory
     // when there is one.
     let shown = retimed.as_ref().map(|r| r.shown(&solution));
@@ -492,7 +502,7 @@ fn solve_starts(
     let others = loaded.starts.saturating_sub(1);
     let Some(timing) = loaded.plan.as_ref().filter(|_| others > 0).map(|p| p.timing()) else {
         let (solution, iterates) = solve_observed(loaded, streamer, (src, quiet), stage)?;
-        return Ok(Solved { solution, iterates, starts: None });
+        return Ok(Solved { solution, iterates, starts: None, retimed: None });
     };
     // The other starts' iterates, recorded for the 3D view should one of them be kept.
     let recorded: Vec<Mutex<Vec<Iterate>>> = (0..others).map(|_| Mutex::default()).collect();
@@ -520,7 +530,7 @@ fn solve_starts(
             .chain(summaries)
             .collect();
     let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
-    let (chosen, retimed) = choose_start(loaded, &ends, &summaries, quiet);
+    let (chosen, mut retimed) = choose_start(loaded, &ends, &summaries, quiet);
     if chosen != 0 {
         // The guess, then the kept start's iterates.
         iterates.truncate(1);
@@ -528,39 +538,38 @@ fn solve_starts(
         iterates.extend(kept.and_then(Result::ok).unwrap_or_default());
     }
     let best = ends.swap_remove(chosen).map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
-    let starts = Some(StartsReport { kept: chosen, each: summaries, retimed_final_times: retimed });
-    Ok(Solved { solution: best, iterates, starts })
+    let times = retimed.iter().map(|r| r.as_ref().map(|r| r.final_time)).collect();
+    let starts = Some(StartsReport { kept: chosen, each: summaries, retimed_final_times: times });
+    let retimed = retimed.get_mut(chosen).and_then(Option::take);
+    Ok(Solved { solution: best, iterates, starts, retimed })
 }
 
 /// Which start to keep, each reported in a line: the converged one of least final time —
 /// once retimed along its path when the task retimes ([`armature_arm::best_start_by`]; a
-/// start whose retiming fails counts with its own final time). Also each start's retimed
-/// final time (empty without retiming).
+/// start whose retiming fails counts with its own final time). Also each start's retiming
+/// (empty without retiming).
 fn choose_start(
     loaded: &Loaded,
     ends: &[Result<Solution, armature_scvx::ProblemError>],
     summaries: &[armature_arm::StartSummary],
     quiet: bool,
-) -> (usize, Vec<Option<f64>>) {
-    let retimed: Vec<Option<f64>> = match &loaded.retime {
+) -> (usize, Vec<Option<armature_arm::Retimed>>) {
+    let retimed: Vec<Option<armature_arm::Retimed>> = match &loaded.retime {
         Some(task) => ends
             .iter()
-            .map(|e| {
-                let s = e.as_ref().ok().filter(|s| s.converged())?;
-                task.retime(s).ok().map(|r| r.final_time)
-            })
+            .map(|e| task.retime(e.as_ref().ok().filter(|s| s.converged())?).ok())
             .collect(),
         None => Vec::new(),
     };
-    let time = |i: usize, s: &Solution| retimed.get(i).copied().flatten().unwrap_or(s.final_time);
+    let retimed_time = |i: usize| retimed.get(i).and_then(|r| r.as_ref()).map(|r| r.final_time);
+    let time = |i: usize, s: &Solution| retimed_time(i).unwrap_or(s.final_time);
     let chosen = armature_arm::best_start_by(ends, time).unwrap_or(0);
     for (i, s) in summaries.iter().enumerate() {
         let outcome = match &s.outcome {
             armature_arm::StartOutcome::Solved(status) => status.to_string(),
             armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
         };
-        let again = retimed.get(i).copied().flatten();
-        let again = again.map_or(String::new(), |t| format!(" (retimed {t:.4} s)"));
+        let again = retimed_time(i).map_or(String::new(), |t| format!(" (retimed {t:.4} s)"));
         let kept = if i == chosen { " (kept)" } else { "" };
         say(
             quiet,
@@ -577,11 +586,12 @@ fn choose_start(
 }
 
 /// What a task's solve hands to the outputs: the solution, the iterates the 3D view draws,
-/// and with several starts their report.
+/// with several starts their report, and the solution's retiming if choosing a start did it.
 struct Solved {
     solution: Solution,
     iterates: Vec<Iterate>,
     starts: Option<StartsReport>,
+    retimed: Option<armature_arm::Retimed>,
 }
 
 /// Solves the task, and with a refinement then the refined task from that solution (when
@@ -593,15 +603,14 @@ fn solve_stages(
 ) -> Result<Solved, CliError> {
     let refined = loaded.refined.take();
     let first = Stage { offset: 0, last: refined.is_none() };
-    let Solved { solution: coarse, mut iterates, starts } =
-        solve_starts(loaded, streamer, (src, quiet), first)?;
-    let Some((factor, plan, mut compiled)) = refined else {
-        return Ok(Solved { solution: coarse, iterates, starts });
-    };
-    if coarse.status != PtrStatus::Converged {
+    let solved = solve_starts(loaded, streamer, (src, quiet), first)?;
+    let Some((factor, plan, mut compiled)) = refined else { return Ok(solved) };
+    if solved.solution.status != PtrStatus::Converged {
         say(quiet, "not refined: the first stage did not converge");
-        return Ok(Solved { solution: coarse, iterates, starts });
+        return Ok(solved);
     }
+    // The refined stage's solution is retimed afresh.
+    let Solved { solution: coarse, mut iterates, starts, .. } = solved;
     armature_arm::set_refined_guess(&mut compiled, &coarse, factor)
         .map_err(|e| CliError::bad_input(solve_error(src, &e)))?;
     say(
@@ -619,7 +628,8 @@ fn solve_stages(
     let (fine, more) = solve_observed(loaded, streamer, (src, quiet), second)?;
     // The guess's iterate of the second stage is the first stage's result: not drawn again.
     iterates.extend(more.into_iter().skip(1));
-    Ok(Solved { solution: armature_arm::join_stages(&coarse, fine), iterates, starts })
+    let solution = armature_arm::join_stages(&coarse, fine);
+    Ok(Solved { solution, iterates, starts, retimed: None })
 }
 
 /// An iterate as the 3D view draws it: the end effector at the nodes (`None` for a problem

@@ -144,7 +144,8 @@ impl ViewData {
         let stride = (n - 1).div_ceil(MAX_SAMPLES - 2);
         let closest = self.trajectory.get("clearance").and_then(|rows| {
             let smallest = |r: &Vec<f64>| r.iter().copied().fold(f64::INFINITY, f64::min);
-            (0..rows.len()).min_by(|&a, &b| smallest(&rows[a]).total_cmp(&smallest(&rows[b])))
+            let each = rows.iter().map(smallest).enumerate();
+            each.min_by(|a, b| a.1.total_cmp(&b.1)).map(|(i, _)| i)
         });
         let keep = |i: usize| i.is_multiple_of(stride) || i == n - 1 || Some(i) == closest;
         for rows in self.trajectory.values_mut() {
