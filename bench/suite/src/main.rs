@@ -1,6 +1,6 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
-//! [--velocity-peaks true|false] [--history] [--no-retime]`: solves every task of the suite
+//! [--velocity-peaks true|false] [--retime-stall JSON] [--history] [--no-retime]`: solves every task of the suite
 //! with default settings, retimes each verified solution along its path as the CLI does by
 //! default (`ArmTask::retime`, `[time] retime`), verifies the result independently (the
 //! retimed trajectory by `retimed.rs`) and prints the table, with T / T_ref where
@@ -18,7 +18,9 @@
 //! (`ArmPlan::solve_multi_start`; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
-//! points or not (each task's dynamics model chooses by default).
+//! points or not (each task's dynamics model chooses by default); `--retime-stall JSON`
+//! stops every task's minimization once its path retimed stalls (`ArmTask::retime_stall`,
+//! the default `RetimeStall` with the object's fields: `'{}'` for the default itself).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -34,6 +36,7 @@ fn main() {
         value("--settings"),
         value("--velocity-peaks"),
     )
+    .and_then(|s| s.with_retime_stall(value("--retime-stall")))
     .unwrap_or_else(|e| {
         eprintln!("error: {e}");
         std::process::exit(2);

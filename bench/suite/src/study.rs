@@ -20,6 +20,9 @@ pub struct Study {
     pub refine: usize,
     /// Starts of every task's first solve (`Initialization::starts`; 1: the guess alone).
     pub starts: usize,
+    /// Every task's solve stops minimizing once its path retimed stalls
+    /// (`ArmTask::retime_stall`).
+    pub retime_stall: Option<armature_arm::RetimeStall>,
 }
 
 impl Study {
@@ -58,7 +61,23 @@ impl Study {
             Some("false") => Some(false),
             Some(v) => return Err(format!("--velocity-peaks {v}: need true or false")),
         };
-        Ok(Study { subdivide, settings, velocity_peaks, refine, starts })
+        Ok(Study { subdivide, settings, velocity_peaks, refine, starts, retime_stall: None })
+    }
+
+    /// With `--retime-stall JSON`: every task's `ArmTask::retime_stall`, the default rule
+    /// with the JSON object's fields (`'{}'` for the default itself).
+    ///
+    /// # Errors
+    /// JSON that is not such an object, or a rule that is not valid.
+    pub fn with_retime_stall(mut self, json: Option<&String>) -> Result<Self, String> {
+        let Some(json) = json else { return Ok(self) };
+        let rule: armature_arm::RetimeStall =
+            serde_json::from_str(json).map_err(|e| format!("--retime-stall {json}: {e}"))?;
+        if !rule.is_valid() {
+            return Err(format!("--retime-stall {json}: not a valid rule"));
+        }
+        self.retime_stall = Some(rule);
+        Ok(self)
     }
 
     /// The task with the study's changes.
@@ -74,6 +93,9 @@ impl Study {
         t.task.initialization.starts = self.starts;
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
+        }
+        if self.retime_stall.is_some() {
+            t.task.retime_stall = self.retime_stall;
         }
         if let Some(patch) = &self.settings {
             let mut current = serde_json::to_value(&t.task.settings).map_err(|e| e.to_string())?;

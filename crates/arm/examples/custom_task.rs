@@ -47,6 +47,7 @@ pub(crate) fn main() {
         collision: None,
         initialization: Initialization::default(),
         settings: PtrSettings::default(),
+        retime_stall: None,
         chain,
     };
     let solution = task.plan().expect("the task is consistent").compile().unwrap().solve().unwrap();

@@ -83,6 +83,7 @@ pub fn pick_and_place() -> ArmTask {
         collision: None,
         initialization: Initialization::default(),
         settings: PtrSettings::default(),
+        retime_stall: None,
     }
 }
 
@@ -153,6 +154,7 @@ pub fn ur5e_rigid_body() -> ArmTask {
     ArmTask {
         chain,
         settings: dynamics.default_settings(),
+        retime_stall: None,
         dynamics,
         velocity_limit,
         torque_limit,

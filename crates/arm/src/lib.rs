@@ -20,9 +20,9 @@ pub use multi_start::{
     MultiStart, StartOutcome, StartSummary, best_start, best_start_by, scale_timing, solve_starts,
     solve_starts_with, start_time_scale, summarize,
 };
-pub use plan::{ArmPlan, waypoint_parameter};
+pub use plan::{ArmPlan, set_retime_stall, waypoint_parameter};
 pub use refine::{join_stages, set_refined_guess};
-pub use retime::Retimed;
+pub use retime::{RetimeStall, Retimed};
 pub use task::{
     ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RIGID_BODY_SUBSTEPS,
     TimeWindow, Waypoint,

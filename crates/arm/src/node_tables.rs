@@ -4,8 +4,6 @@
 
 use std::collections::BTreeMap;
 
-use armature_scvx::Solution;
-
 type Table = Vec<Vec<f64>>;
 
 /// A solved arm trajectory's node tables.
@@ -17,16 +15,17 @@ pub(crate) struct NodeTables<'a> {
 }
 
 impl<'a> NodeTables<'a> {
-    /// The `time`, `angle`, `velocity` and `torque` node tables of `s`, checked for shape
-    /// (`n` joints, two nodes or more, increasing finite times, finite values).
-    pub(crate) fn new(s: &'a Solution, n: usize) -> Result<Self, String> {
+    /// The `time`, `angle`, `velocity` and `torque` tables of `tables` (a solution's or an
+    /// iterate's node tables), checked for shape (`n` joints, two nodes or more, increasing
+    /// finite times, finite values).
+    pub(crate) fn new(tables: &'a BTreeMap<String, Table>, n: usize) -> Result<Self, String> {
         let table = |t: &'a BTreeMap<String, Table>, name: &str| {
             t.get(name).ok_or_else(|| format!("the solution has no \"{name}\" node table"))
         };
         let times: Vec<f64> =
-            table(&s.nodes, "time")?.iter().filter_map(|r| r.first().copied()).collect();
+            table(tables, "time")?.iter().filter_map(|r| r.first().copied()).collect();
         let (q, v, u) =
-            (table(&s.nodes, "angle")?, table(&s.nodes, "velocity")?, table(&s.nodes, "torque")?);
+            (table(tables, "angle")?, table(tables, "velocity")?, table(tables, "torque")?);
         let fits = |t: &Table| t.len() == times.len() && t.iter().all(|r| r.len() == n);
         if times.len() < 2 || !(fits(q) && fits(v) && fits(u)) {
             return Err(format!("the solution's node tables do not fit {n} joints and 2+ nodes"));

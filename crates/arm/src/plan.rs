@@ -4,7 +4,7 @@ use armature_ik::IkTrajectory;
 use armature_scvx::{CompiledProblem, Problem, ProblemError, PtrSettings, Time};
 
 use crate::dynamics::Resolved;
-use crate::{ArmError, ArmTask, TaskItem, check, feasibility, formulation, guess};
+use crate::{ArmError, ArmTask, RetimeStall, TaskItem, check, feasibility, formulation, guess};
 
 /// An [`ArmTask`] as an SCvx [`Problem`], with its initial guess.
 #[derive(Debug, Clone)]
@@ -18,6 +18,9 @@ pub struct ArmPlan {
     pub ik: IkTrajectory,
     /// Solver settings.
     pub settings: PtrSettings,
+    /// The task and its [`RetimeStall`] rule when the solve stops minimizing once its path
+    /// retimed stalls (`None`: it minimizes to the end).
+    pub retime_stall: Option<(RetimeStall, Box<ArmTask>)>,
 }
 
 /// Name of the parameter holding waypoint `name`'s position (change it between solves with
@@ -55,7 +58,15 @@ impl ArmTask {
             dilation_guess: guess.dilation,
             ik: guess.ik,
             settings: self.settings.clone(),
+            retime_stall: self.retime_stall.map(|r| (r, Box::new(self.clone()))),
         })
+    }
+}
+
+/// Sets `stall`'s monitor (`(rule, task)`, as [`ArmPlan::retime_stall`]) on `c`, if any.
+pub fn set_retime_stall(c: &mut CompiledProblem, stall: Option<&(RetimeStall, Box<ArmTask>)>) {
+    if let Some((rule, task)) = stall {
+        c.set_monitor(Some(rule.monitor((**task).clone(), c.layout().clone())));
     }
 }
 
@@ -67,6 +78,7 @@ impl ArmPlan {
     pub fn compile(&self) -> Result<CompiledProblem, ProblemError> {
         let mut c = self.problem.compile(self.settings.clone())?;
         c.set_dilation_guess(&self.dilation_guess)?;
+        set_retime_stall(&mut c, self.retime_stall.as_ref());
         Ok(c)
     }
 }

@@ -88,7 +88,7 @@ impl<'a> Coarse<'a> {
         };
         let column = |t: &Table| t.iter().filter_map(|r| r.first().copied()).collect::<Vec<_>>();
         let width = s.nodes.get("angle").and_then(|t| t.first()).map_or(0, Vec::len);
-        let nodes = NodeTables::new(s, width).map_err(bad)?;
+        let nodes = NodeTables::new(&s.nodes, width).map_err(bad)?;
         let dense = &s.trajectory;
         let c = Coarse {
             times: nodes.times,

@@ -185,6 +185,10 @@ pub struct ArmTask {
     pub initialization: Initialization,
     /// Solver settings.
     pub settings: PtrSettings,
+    /// For a result that will be retimed ([`retime`](Self::retime)): stop minimizing the
+    /// solve's own final time once its path retimed stalls ([`RetimeStall`]). Default
+    /// `None`: the solve minimizes its own time to the end.
+    pub retime_stall: Option<crate::RetimeStall>,
 }
 
 impl ArmTask {

@@ -88,3 +88,19 @@ fn limits_that_do_not_fit_the_arm_are_named() {
     seed.torque_limit.pop();
     assert_eq!(seed.retime(&solution).unwrap_err().item, TaskItem::TorqueLimit);
 }
+
+#[test]
+fn the_coarse_estimate_of_the_retimed_time_is_close_and_converges_to_it() {
+    let (seed, solution) = seed_solution();
+    let fine = seed.retime(&solution).unwrap().final_time;
+    assert_eq!(seed.retimed_final_time(&solution.nodes, 2000).unwrap(), fine);
+    let coarse = seed.retimed_final_time(&solution.nodes, 200).unwrap();
+    let finer = seed.retimed_final_time(&solution.nodes, 800).unwrap();
+    // Coarser grids relax the rows between samples a little less tightly (within 1 %).
+    assert!((coarse / fine - 1.0).abs() < 1e-2, "{coarse} vs {fine}");
+    assert!((finer - fine).abs() <= (coarse - fine).abs(), "{finer} {coarse} {fine}");
+    let mut moving = solution.nodes.clone();
+    moving.get_mut("velocity").unwrap()[0][1] = 0.3;
+    let e = seed.retimed_final_time(&moving, 200).unwrap_err();
+    assert_eq!(e.item, TaskItem::Solution);
+}

@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use armature_arm::{ArmError, ArmTask, Clearance, Initialization, TaskItem, TimeWindow};
+use armature_arm::{
+    ArmError, ArmTask, Clearance, Initialization, RetimeStall, TaskItem, TimeWindow,
+};
 use armature_collision::{CollisionModel, Scene};
 use armature_ik::{IkTrajectory, Mode};
 use armature_kinematics::{Chain, Inertial, KinematicsError, LoadOptions, Pose};
@@ -51,7 +53,12 @@ pub struct Plan {
     pub ik: IkTrajectory,
     /// Solver settings.
     pub settings: PtrSettings,
+    /// `[time] retime_stall`'s rule with the task it retimes.
+    pub retime_stall: Option<Stall>,
 }
+
+/// A [`RetimeStall`] rule with the task whose path it retimes.
+pub type Stall = (RetimeStall, Box<ArmTask>);
 
 pub use armature_arm::waypoint_parameter;
 
@@ -106,6 +113,7 @@ pub fn arm_task(
         collision,
         initialization: initialization(task, src)?,
         settings,
+        retime_stall: retime_stall(task, src)?,
     };
     Ok(arm_task)
 }
@@ -135,6 +143,7 @@ pub fn plan_arm(task: &TaskFile, src: Source<'_>, arm_task: ArmTask) -> Result<P
         dilation_guess: arm.dilation_guess,
         ik: arm.ik,
         settings: arm.settings,
+        retime_stall: arm.retime_stall,
     })
 }
 
@@ -323,6 +332,22 @@ pub fn retiming(task: &TaskFile, src: Source<'_>) -> Result<bool, LocatedError> 
         )),
         Some(r) => Ok(*r.get_ref()),
         None => Ok(task.time.minimize),
+    }
+}
+
+/// `[time] retime_stall`: the rule that stops the solve's minimization once its path
+/// retimed stalls (`None` when not asked for).
+///
+/// # Errors
+/// `retime_stall = true` on a task that is not retimed.
+fn retime_stall(task: &TaskFile, src: Source<'_>) -> Result<Option<RetimeStall>, LocatedError> {
+    match &task.time.retime_stall {
+        Some(r) if *r.get_ref() && !retiming(task, src)? => Err(src.error(
+            r,
+            "retime_stall = true judges the solve by its path retimed: it needs the result retimed (retime and minimize true)",
+        )),
+        Some(r) if *r.get_ref() => Ok(Some(RetimeStall::default())),
+        _ => Ok(None),
     }
 }
 
@@ -567,6 +592,7 @@ pub struct Timing {
     problem: Problem,
     dilation_guess: Vec<f64>,
     settings: armature_scvx::PtrSettings,
+    retime_stall: Option<Stall>,
 }
 
 impl Timing {
@@ -581,18 +607,20 @@ impl Timing {
     ) -> Result<CompiledProblem, armature_scvx::ProblemError> {
         let (mut problem, mut dilation) = (self.problem.clone(), self.dilation_guess.clone());
         armature_arm::scale_timing(&mut problem.time, &mut dilation, scale);
-        compile_guess(&problem, &self.settings, &dilation)
+        compile_guess(&problem, &self.settings, &dilation, self.retime_stall.as_ref())
     }
 }
 
-/// `problem` compiled with `settings` and the dilation guess set.
+/// `problem` compiled with `settings`, the dilation guess set, and `stall`'s monitor.
 fn compile_guess(
     problem: &Problem,
     settings: &armature_scvx::PtrSettings,
     dilation_guess: &[f64],
+    stall: Option<&Stall>,
 ) -> Result<CompiledProblem, armature_scvx::ProblemError> {
     let mut c = problem.compile(settings.clone())?;
     c.set_dilation_guess(dilation_guess)?;
+    armature_arm::set_retime_stall(&mut c, stall);
     Ok(c)
 }
 
@@ -603,6 +631,7 @@ impl Plan {
             problem: self.problem.clone(),
             dilation_guess: self.dilation_guess.clone(),
             settings: self.settings.clone(),
+            retime_stall: self.retime_stall.clone(),
         }
     }
 
@@ -611,6 +640,7 @@ impl Plan {
     /// # Errors
     /// The problem layer's (a bug here rather than bad input: the plan was checked).
     pub fn compile(&self) -> Result<CompiledProblem, armature_scvx::ProblemError> {
-        compile_guess(&self.problem, &self.settings, &self.dilation_guess)
+        let stall = self.retime_stall.as_ref();
+        compile_guess(&self.problem, &self.settings, &self.dilation_guess, stall)
     }
 }

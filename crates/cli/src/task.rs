@@ -21,6 +21,8 @@
 //! max = 4.0                      # free final time in [min, max], minimized by default
 //! # retime = false               # keep the solve's own timing (default: the solved path is
 //!                                # then followed time-optimally within the limits, TOPP-RA)
+//! # retime_stall = true          # stop minimizing once the retimed time stalls: fewer
+//!                                # iterations, sometimes a slower result (default false)
 //!
 //! [nodes]
 //! per_segment = 2                # waypoint k sits at node k·per_segment (or give `count`)
@@ -235,6 +237,14 @@ pub struct TimeSpec {
     #[serde(default)]
     #[schemars(with = "Option<bool>")]
     pub retime: Option<Spanned<bool>>,
+    /// With a retimed result: stop minimizing the solve's own final time once its path,
+    /// retimed, stops getting faster, and only restore feasibility from there
+    /// (`armature_arm::RetimeStall`): fewer iterations for a retimed time that is usually
+    /// within a few tenths of a percent of the full solve's, sometimes a few percent slower
+    /// (BENCHMARKS.md). Default false.
+    #[serde(default)]
+    #[schemars(with = "Option<bool>")]
+    pub retime_stall: Option<Spanned<bool>>,
 }
 
 /// Nodes: a count, or nodes per segment between waypoints (default 2).

@@ -136,3 +136,41 @@ fn retiming_a_task_whose_time_is_not_minimized_is_a_located_error() {
     assert!(stderr.contains("needs minimize = true"), "{stderr}");
     assert!(!json.exists(), "nothing written");
 }
+
+#[test]
+fn retime_stall_stops_minimizing_once_the_retimed_time_stalls() {
+    let task = temp_file(
+        "retime-stall",
+        "task.toml",
+        &TASK.replacen("[time]\n", "[time]\nretime_stall = true\n", 1),
+    );
+    let json = task.with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["solve", task.to_str().unwrap(), "-q", "-o", json.to_str().unwrap()]);
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_solved(code, &r, &stderr);
+    // The iterations after the stall only restored feasibility, and are marked so.
+    let history = r["history"].as_array().unwrap();
+    let marked: Vec<bool> = history.iter().map(|h| h["feasibility"].as_bool().unwrap()).collect();
+    let first = marked.iter().position(|&m| m).expect("a feasibility phase");
+    assert!(first > 0 && marked[first..].iter().all(|&m| m), "{marked:?}");
+    // Measured: 16 iterations against 42, retimed 1.213 s against 1.136 s.
+    assert!(history.len() < 30, "{} iterations", history.len());
+    let (solve_time, retimed) =
+        (r["final_time"].as_f64().unwrap(), r["retimed"]["final_time"].as_f64().unwrap());
+    assert!(retimed < solve_time && retimed < 1.3, "{retimed} against {solve_time}");
+}
+
+#[test]
+fn retime_stall_without_a_retimed_result_is_a_located_error() {
+    let text = TASK.replacen("[time]\n", "[time]\nretime = false\nretime_stall = true\n", 1);
+    let task = temp_file("retime-stall-off", "task.toml", &text);
+    let json = task.with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["solve", task.to_str().unwrap(), "-o", json.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    let line = text.lines().position(|l| l.starts_with("retime_stall")).unwrap() + 1;
+    assert!(stderr.contains(&format!("task.toml:{line}:")), "{stderr}");
+    assert!(stderr.contains("needs the result retimed"), "{stderr}");
+    assert!(!json.exists(), "nothing written");
+}

@@ -24,7 +24,7 @@ pub use discretization::{
     MAX_SUBSTEPS, SegmentHessianWorkspace,
 };
 pub use ipm::IpmSettings;
-pub use problem::CompiledProblem;
+pub use problem::{CompiledProblem, Monitor, Steer};
 pub use ptr::{
     ClarabelSettings, Increment, IntervalConstraint, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
     PtrSettings, Sampling, SettingsError, SubproblemDimensions, SubproblemSettings,

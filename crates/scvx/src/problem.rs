@@ -52,9 +52,11 @@ use serde::Serialize;
 
 mod checks;
 mod compile;
+mod monitor;
 mod solution;
 mod variables;
 
+pub use monitor::{Monitor, Steer};
 pub use solution::{Solution, SolutionLayout, SolutionTimings};
 pub use variables::{Boundary, Control, State, Time};
 
@@ -304,6 +306,8 @@ pub struct CompiledProblem {
     settings: PtrSettings,
     layout: SolutionLayout,
     guess: Guess,
+    /// Consulted after every iteration while the cost is on ([`set_monitor`](Self::set_monitor)).
+    monitor: Option<Monitor>,
 }
 
 impl CompiledProblem {
@@ -421,7 +425,7 @@ impl CompiledProblem {
     ) -> Result<Solution, ProblemError> {
         let t0 = Instant::now();
         let (x, u, s) = (self.guess.0.clone(), self.guess.1.clone(), self.guess.2.clone());
-        let r = self.ptr.solve_with(&x, &u, &s, observer)?;
+        let r = self.run((&x, &u, &s), observer)?;
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
         self.solution(&r, solve_ms)
     }

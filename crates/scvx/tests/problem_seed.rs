@@ -153,3 +153,31 @@ fn solved(sol: &armature_scvx::Solution) {
         other => panic!("{other}: {:?}", sol.max_violation),
     }
 }
+
+#[test]
+fn a_monitor_that_drops_the_cost_is_consulted_until_then_and_the_solve_ends_feasible() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use armature_scvx::{Monitor, Steer};
+    let (problem, dilation) = seed_problem();
+    let mut compiled = problem.compile(PtrSettings::default()).unwrap();
+    compiled.set_dilation_guess(&dilation).unwrap();
+    let calls = Arc::new(AtomicUsize::new(0));
+    let seen = Arc::clone(&calls);
+    compiled.set_monitor(Some(Monitor::new(move |it, trajectory| {
+        seen.fetch_add(1, Ordering::Relaxed);
+        assert_eq!(trajectory.nodes, seed::NODES);
+        if it.iteration >= 8 { Steer::RestoreFeasibilityOnly } else { Steer::Continue }
+    })));
+    let sol = compiled.solve().unwrap();
+    solved(&sol);
+    assert_eq!(calls.load(Ordering::Relaxed), 8, "consulted while the cost is on only");
+    assert!(sol.history.iter().all(|h| h.feasibility == (h.iteration > 8)));
+    assert!(sol.iterations > 8);
+    // Without the monitor the next solve minimizes to the end, and further.
+    compiled.set_monitor(None);
+    let full = compiled.solve().unwrap();
+    assert!(full.history.iter().all(|h| !h.feasibility));
+    assert!(full.final_time < sol.final_time, "{} vs {}", full.final_time, sol.final_time);
+}

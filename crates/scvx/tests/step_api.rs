@@ -210,3 +210,46 @@ fn a_problem_whose_parts_do_not_fit_is_refused_at_construction() {
     ocp.nodes = 1;
     assert_eq!(field(Ptr::new(ocp, settings()).unwrap_err()), "nodes");
 }
+
+#[test]
+fn dropping_the_cost_ends_with_a_feasible_trajectory_and_marks_the_iterations() {
+    let nodes = 21;
+    let (x, u, s) = poor_guess(nodes);
+    let mut ptr = Ptr::new(problem(nodes), settings()).unwrap();
+    assert!(matches!(ptr.restore_feasibility_only(), Err(PtrError::NotRunning)));
+    let full = ptr.solve(&x, &u, &s).unwrap();
+    assert_eq!(full.status, PtrStatus::Converged);
+    assert!(full.history.iter().all(|h| !h.feasibility));
+    ptr.start(&x, &u, &s).unwrap();
+    assert!(ptr.cost_on());
+    let switch = 3;
+    for _ in 0..switch {
+        assert!(ptr.step().unwrap().status.is_none());
+    }
+    ptr.restore_feasibility_only().unwrap();
+    assert!(!ptr.cost_on());
+    let mut last = None;
+    while last.is_none() {
+        last = ptr.step().unwrap().status;
+    }
+    let r = ptr.result().unwrap();
+    assert_eq!(r.status, PtrStatus::Converged, "{:?}", r.history.last());
+    for h in &r.history {
+        assert_eq!(h.feasibility, h.iteration > switch, "{h:?}");
+        if h.feasibility {
+            assert_eq!(h.cost, 0.0, "{h:?}");
+        }
+    }
+    // Feasible: the dynamics close and the mid-course constraint holds.
+    assert!(r.history.last().unwrap().max_defect < 1e-6);
+    assert!(r.x[(nodes / 2) * 2] >= 0.6 - 1e-6);
+    let end = &r.x[(nodes - 1) * 2..];
+    assert!((end[0] - 1.0).abs() < 1e-6 && end[1].abs() < 1e-6, "{end:?}");
+    // Minimizing stopped early: no faster than the full solve.
+    assert!(r.final_time >= full.final_time - 1e-6, "{} vs {}", r.final_time, full.final_time);
+    assert!(matches!(ptr.restore_feasibility_only(), Err(PtrError::NotRunning)));
+    // A new start minimizes again.
+    let again = ptr.solve(&x, &u, &s).unwrap();
+    assert!(ptr.cost_on() && again.history.iter().all(|h| !h.feasibility));
+    assert_eq!(again.final_time, full.final_time);
+}

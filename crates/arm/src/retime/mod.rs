@@ -3,12 +3,16 @@
 
 mod path;
 mod rows;
+mod stall;
 mod topp;
+
+use std::collections::BTreeMap;
 
 use armature_scvx::Solution;
 use serde::Serialize;
 
 use self::path::Model;
+pub use self::stall::RetimeStall;
 use self::topp::ToppFailure;
 use crate::dynamics::Resolved;
 use crate::node_tables::NodeTables;
@@ -70,6 +74,32 @@ impl ArmTask {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn retime(&self, solution: &Solution) -> Result<Retimed, ArmError> {
+        self.retime_tables(&solution.nodes, path::POINTS)
+    }
+
+    /// The final time of the trajectory whose node tables are `nodes` (`time`, `angle`,
+    /// `velocity`, `torque`: a solution's, or an iterate's from
+    /// [`SolutionLayout::nodal_tables`](armature_scvx::SolutionLayout::nodal_tables)) retimed
+    /// along its path as [`retime`](Self::retime) does, on a grid of about `points` points
+    /// (at least 4 per segment; `retime` samples about 2000): a coarser grid estimates the
+    /// same time at a fraction of the cost, to follow a solve's progress.
+    ///
+    /// # Errors
+    /// As [`retime`](Self::retime).
+    pub fn retimed_final_time(
+        &self,
+        nodes: &BTreeMap<String, Vec<Vec<f64>>>,
+        points: usize,
+    ) -> Result<f64, ArmError> {
+        self.retime_tables(nodes, points).map(|r| r.final_time)
+    }
+
+    /// [`retime`](Self::retime) of the node tables `nodes` on about `points` points.
+    fn retime_tables(
+        &self,
+        nodes: &BTreeMap<String, Vec<Vec<f64>>>,
+        points: usize,
+    ) -> Result<Retimed, ArmError> {
         let n = self.chain.dof();
         let resolved = Resolved::new(&self.dynamics, &self.chain)?;
         let limits_fit = |l: &[f64]| l.len() == n && l.iter().all(|v| v.is_finite() && *v > 0.0);
@@ -80,12 +110,12 @@ impl ArmTask {
             return Err(ArmError::new(TaskItem::TorqueLimit, format!("{n} limits > 0 needed")));
         }
         let bad = |m: String| ArmError::new(TaskItem::Solution, m);
-        let nodes = NodeTables::new(solution, n).map_err(bad)?;
+        let nodes = NodeTables::new(nodes, n).map_err(bad)?;
         if !nodes.at_rest() {
             return Err(bad("retiming needs a trajectory from rest to rest".into()));
         }
         let mut model = Model::new(&resolved);
-        let path = path::sample(&mut model, &nodes);
+        let path = path::sample(&mut model, &nodes, points);
         let delta: Vec<f64> = path.sigma.windows(2).map(|w| w[1] - w[0]).collect();
         let coef = rows::torque_coefficients(&mut model, &path);
         let finite = |t: &[Vec<f64>]| t.iter().flatten().all(|x| x.is_finite());

@@ -65,16 +65,17 @@ impl<'a> Model<'a> {
     }
 }
 
-/// The path of `nodes`' trajectory under `model` on a grid of about [`POINTS`] points.
-pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>) -> PathSamples {
+/// The path of `nodes`' trajectory under `model` on a grid of about `points` points
+/// ([`POINTS`] for a result).
+pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>, points: usize) -> PathSamples {
     let n = nodes.q[0].len();
     let total = nodes.times[nodes.times.len() - 1] - nodes.times[0];
     let (mut q, mut qd) = (nodes.q[0].clone(), nodes.v[0].clone());
     let mut out = PathSamples {
-        sigma: Vec::with_capacity(POINTS + 1),
-        q: Vec::with_capacity(POINTS + 1),
-        dq: Vec::with_capacity(POINTS + 1),
-        ddq: Vec::with_capacity(POINTS + 1),
+        sigma: Vec::with_capacity(points + 1),
+        q: Vec::with_capacity(points + 1),
+        dq: Vec::with_capacity(points + 1),
+        ddq: Vec::with_capacity(points + 1),
         nodes: vec![0],
     };
     let mut acc = vec![0.0; n];
@@ -94,7 +95,7 @@ pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>) -> PathSampl
     let zero = vec![0.0; n];
     for k in 0..nodes.times.len() - 1 {
         let (t0, h) = (nodes.times[k], nodes.times[k + 1] - nodes.times[k]);
-        let steps = ((h / total * POINTS as f64).ceil() as usize).max(MIN_STEPS);
+        let steps = ((h / total * points as f64).ceil() as usize).max(MIN_STEPS);
         let rest = (k == 0, k + 2 == nodes.times.len());
         let cuts = segment_grid(t0, h, steps, rest);
         for (i, w) in cuts.windows(2).enumerate() {

@@ -128,6 +128,7 @@ impl Problem {
                 m: self.controls.iter().map(Control::size).sum(),
             },
             ptr: Ptr::new(ocp, settings.clone())?,
+            monitor: None,
             settings,
             guess,
         })

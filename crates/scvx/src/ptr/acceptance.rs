@@ -20,10 +20,12 @@ struct StepModel {
 }
 
 impl Iteration {
-    /// The record of iteration `it` before its subproblem is solved.
-    pub(super) fn pending(it: usize, final_time: f64, lam_tr: f64) -> Iteration {
+    /// The record of iteration `it` before its subproblem is solved (`feasibility`: its cost
+    /// is dropped).
+    pub(super) fn pending(it: usize, final_time: f64, lam_tr: f64, feasibility: bool) -> Iteration {
         Iteration {
             iteration: it,
+            feasibility,
             accepted: false,
             cost: f64::NAN,
             j_tr: f64::NAN,
@@ -54,11 +56,13 @@ impl Ptr {
         let (_, s0, vp0, _) = self.layout();
         let dtau = 1.0 / (nn - 1) as f64;
         st.q.fill(0.0);
-        for k in 0..nn - 1 {
-            st.q[s0 + k] += self.ocp.time_weight * dtau;
-        }
-        for &(i, w) in &self.ocp.final_cost {
-            st.q[(nn - 1) * n + i] += w;
+        if self.cost_on {
+            for k in 0..nn - 1 {
+                st.q[s0 + k] += self.ocp.time_weight * dtau;
+            }
+            for &(i, w) in &self.ocp.final_cost {
+                st.q[(nn - 1) * n + i] += w;
+            }
         }
         for (i, qi) in st.q.iter_mut().enumerate().skip(vp0) {
             *qi = if i < self.vb0 { st.lam_vc[(i - vp0) % n] } else { st.lam_vb[i - self.vb0] };

@@ -132,6 +132,7 @@ impl Ptr {
             row_elem,
             exact,
             state: None,
+            cost_on: true,
         })
     }
 }

@@ -66,8 +66,12 @@ impl Ptr {
         d.defect.iter().enumerate().map(|(i, x)| lam_vc[i % n] * x.abs()).sum()
     }
 
-    /// The objective: time weight × final time plus the final-state cost.
+    /// The objective: time weight × final time plus the final-state cost; 0 once the cost is
+    /// dropped ([`Ptr::restore_feasibility_only`]).
     pub(super) fn cost(&self, x: &[f64], tf: f64) -> f64 {
+        if !self.cost_on {
+            return 0.0;
+        }
         let last = (self.ocp.nodes - 1) * self.ocp.dynamics.n_x();
         self.ocp.time_weight * tf
             + self.ocp.final_cost.iter().map(|&(i, w)| w * x[last + i]).sum::<f64>()

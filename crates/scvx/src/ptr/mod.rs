@@ -163,6 +163,9 @@ pub struct Ptr {
     exact: curvature::ExactHessian,
     /// The running (or last) solve.
     state: Option<Box<Iterate>>,
+    /// Whether the running solve still minimizes its cost; `false` once
+    /// [`restore_feasibility_only`](Self::restore_feasibility_only) dropped it.
+    cost_on: bool,
 }
 
 impl Ptr {

@@ -150,6 +150,9 @@ pub struct Iteration {
     pub subproblem_status: SubproblemStatus,
     /// Set on the final iteration: how the solve ended.
     pub status: Option<PtrStatus>,
+    /// Whether the iteration only restored feasibility: its subproblem had no cost (dropped
+    /// by [`Ptr::restore_feasibility_only`]).
+    pub feasibility: bool,
 }
 
 /// The outcome: the last accepted trajectory, its violations and the history.
@@ -444,7 +447,8 @@ pub struct Timings {
 /// predicted decrease (the trust region's signal: near 1 where the subproblem's model holds,
 /// small where second-order defects eat the step's gain); the discretization's and the
 /// subproblem's wall times; then the record's cost, penalties, defect, violation, trust-region
-/// gradient, λ_tr, interior-point iterations and the subproblem's status.
+/// gradient, λ_tr, interior-point iterations and the subproblem's status. An iteration that
+/// only restored feasibility (its cost dropped) shows `feasible` for its cost.
 ///
 /// ```
 /// use armature_scvx::{Iteration, IterationTable, SubproblemStatus};
@@ -455,7 +459,7 @@ pub struct Timings {
 ///     max_defect: 1e-3, max_violation: 2e-3, final_time: 1.25, rho: 0.42, predicted: 4e-3,
 ///     corrected: true, lam_tr: 0.03, tr_gradient: 1e-3, discretization_ms: 1.0,
 ///     subproblem_ms: 13.0, subproblem_iterations: 21, subproblem_status: SubproblemStatus::Solved,
-///     status: None,
+///     status: None, feasibility: false,
 /// };
 /// IterationTable::row(&mut out, &it).unwrap();
 /// let text = String::from_utf8(out).unwrap();
@@ -499,7 +503,7 @@ impl IterationTable {
     pub fn row(w: &mut impl std::io::Write, it: &Iteration) -> std::io::Result<()> {
         writeln!(
             w,
-            "{:>4} {:>3} {:>7.3} {:>8.2} {:>8.2} {:>10.6} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
+            "{:>4} {:>3} {:>7.3} {:>8.2} {:>8.2} {:>10} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>9.2e} {:>8.1e} {:>4}  {}",
             it.iteration,
             match (it.accepted, it.corrected) {
                 (false, _) => "no",
@@ -509,7 +513,7 @@ impl IterationTable {
             it.rho,
             it.discretization_ms,
             it.subproblem_ms,
-            it.cost,
+            if it.feasibility { "feasible".to_string() } else { format!("{:.6}", it.cost) },
             it.j_tr,
             it.j_vb,
             it.j_vc,

@@ -80,6 +80,7 @@ impl Ptr {
         st.lam_vc.fill(self.settings.lam_vc);
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
+        self.cost_on = true;
         // A new solve does not warm-start from the last one's subproblem.
         if let Some(native) = st.native.as_mut() {
             native.restart();
@@ -113,6 +114,39 @@ impl Ptr {
             if st.status.is_some() { Err(PtrError::NotRunning) } else { self.step_in(&mut st) };
         self.state = Some(st);
         out
+    }
+
+    /// Drops the cost of the running solve: from the next [`step`](Self::step) on, its
+    /// subproblems have no objective but the prices of the virtual controls and buffers and
+    /// the trust region, so the solve only restores feasibility near the current reference
+    /// and stops by the usual test (short step, defects and violations within tolerance).
+    /// For a caller that judges the iterates by its own measure — e.g. the final time of
+    /// their path retimed, which the solve's own timing no longer improves — and has what it
+    /// needs once the trajectory is feasible. The iterations after it are marked
+    /// ([`Iteration::feasibility`]); [`start`](Self::start) restores the cost.
+    ///
+    /// # Errors
+    /// [`PtrError::NotRunning`] before [`start`](Self::start) or after a final iteration.
+    pub fn restore_feasibility_only(&mut self) -> Result<(), PtrError> {
+        let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
+        if st.status.is_some() {
+            self.state = Some(st);
+            return Err(PtrError::NotRunning);
+        }
+        self.cost_on = false;
+        // The reference's merit without the cost, for the next step's ratio.
+        let prices = (&st.lam_vc[..], &st.lam_vb[..]);
+        let (xb, ub, sb) = (&st.xb, &st.ub, &st.sb);
+        (st.jbar, _, _, _) =
+            self.merit(xb, ub, sb, &st.dbar, &mut st.ev, prices, GridAt::Reference);
+        self.state = Some(st);
+        Ok(())
+    }
+
+    /// Whether the running solve still minimizes its cost (see
+    /// [`restore_feasibility_only`](Self::restore_feasibility_only)).
+    pub fn cost_on(&self) -> bool {
+        self.cost_on
     }
 
     /// The current reference trajectory (the last accepted one), once started.

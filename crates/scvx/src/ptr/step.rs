@@ -43,13 +43,19 @@ impl Ptr {
     pub(super) fn step_in(&mut self, st: &mut Iterate) -> Result<Iteration, PtrError> {
         let it = st.history.len() + 1;
         // A copy (plain numbers, no allocation), so `self` stays free for the evaluations.
-        let set = &self.settings.clone();
+        let mut set = self.settings.clone();
+        if !self.cost_on {
+            // Polishing short steps is for an objective with little left to gain; without
+            // one every prediction is "little", and the rule would freeze the steps.
+            set.eps_flat = 0.0;
+        }
+        let set = &set;
         if !st.linearized {
             self.linearize_constraints(st);
         }
         self.fill_objective(st);
         self.fill_p(st, set.quasi_newton, set.exact_hessian);
-        let mut record = Iteration::pending(it, st.tf, st.lam_tr);
+        let mut record = Iteration::pending(it, st.tf, st.lam_tr, !self.cost_on);
         if let Err(status) = self.solve_step(st, set, &mut record) {
             return Ok(self.finish(st, record, status));
         }

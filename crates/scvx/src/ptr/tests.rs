@@ -637,7 +637,7 @@ fn inexact_solves_follow_the_last_predicted_decrease() {
     let record = |cost: f64, predicted: f64| Iteration {
         cost,
         predicted,
-        ..Iteration::pending(1, 1.0, 1.0)
+        ..Iteration::pending(1, 1.0, 1.0, false)
     };
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
     assert_eq!(set.inexact_tolerance(Some(&record(1.2, 0.3))), loosest);
