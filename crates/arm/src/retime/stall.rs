@@ -11,13 +11,17 @@ use crate::ArmTask;
 /// time and only restores feasibility: once the final time of its iterates' paths retimed
 /// (estimated on a coarse grid, [`ArmTask::retimed_final_time`]) has improved by less than
 /// `tolerance` (relative) over the last `window` accepted iterates whose largest nodal
-/// violation is within `violation_gate`.
+/// violation is within `violation_gate`, while the solve's own final time improved by less
+/// than `solve_tolerance` over them.
 ///
 /// The solve's own final time belongs to its control parametrization (first-order-hold
 /// torques on the nodes); the retiming replaces it with the fastest timing along the path.
 /// The path settles earlier than that timing: the last iterations of a minimizing solve
-/// improve its own time far more than the retimed one. This trades a little of the retimed
-/// time for iterations (measured on the benchmark suite, `BENCHMARKS.md`).
+/// improve its own time far more than the retimed one. The retimed time of the early
+/// iterates is a noisy signal, though (they still violate the task's nodal constraints, and
+/// a path that cuts a corner retimes faster), and a solve whose own time still falls fast
+/// is still reshaping its path: `solve_tolerance` waits for that. This trades a little of
+/// the retimed time for iterations (measured on the benchmark suite, `BENCHMARKS.md`).
 ///
 /// # Example
 /// ```
@@ -44,21 +48,32 @@ pub struct RetimeStall {
     /// Largest nodal violation of an iterate that counts (its path may still leave a
     /// waypoint or an orientation range by this much). Default 1e-2.
     pub violation_gate: f64,
+    /// Relative improvement of the solve's own final time over the same window below which
+    /// the solve is no longer reshaping its path fast (1 or more: not required). Default
+    /// 0.02.
+    pub solve_tolerance: f64,
     /// Points of the coarse retiming grid (at least 4 per segment). Default 200.
     pub points: usize,
 }
 
 impl Default for RetimeStall {
     fn default() -> Self {
-        RetimeStall { tolerance: 0.002, window: 4, violation_gate: 1e-2, points: 200 }
+        RetimeStall {
+            tolerance: 0.002,
+            window: 4,
+            violation_gate: 1e-2,
+            solve_tolerance: 0.02,
+            points: 200,
+        }
     }
 }
 
 impl RetimeStall {
     /// Whether the settings are usable: a tolerance in `[0, 1)`, a window of 1 or more, a
-    /// positive gate, 10 points or more.
+    /// positive gate, a solve tolerance of 0 or more, 10 points or more.
     pub fn is_valid(&self) -> bool {
         (0.0..1.0).contains(&self.tolerance)
+            && self.solve_tolerance >= 0.0
             && self.window >= 1
             && self.violation_gate > 0.0
             && self.points >= 10
@@ -68,7 +83,8 @@ impl RetimeStall {
     /// [`ArmPlan::compile`](crate::ArmPlan::compile) sets when the task asks for it, for a
     /// caller compiling the problem itself).
     pub fn monitor(self, task: ArmTask, layout: SolutionLayout) -> Monitor {
-        let mut best: Vec<f64> = Vec::new();
+        // Per counted iterate: the best retimed time so far, and the solve's own.
+        let mut seen: Vec<(f64, f64)> = Vec::new();
         Monitor::new(move |it: &Iteration, t: &Trajectory<'_>| {
             // A NaN violation (no candidate evaluated) does not count either.
             let gated = it.max_violation <= self.violation_gate;
@@ -79,16 +95,19 @@ impl RetimeStall {
             let Ok(time) = task.retimed_final_time(&tables, self.points) else {
                 return Steer::Continue;
             };
-            let so_far = best.last().map_or(time, |b| b.min(time));
-            best.push(so_far);
-            if self.stalled(&best) { Steer::RestoreFeasibilityOnly } else { Steer::Continue }
+            let so_far = seen.last().map_or(time, |b| b.0.min(time));
+            seen.push((so_far, t.final_time));
+            if self.stalled(&seen) { Steer::RestoreFeasibilityOnly } else { Steer::Continue }
         })
     }
 
-    /// Whether the running best `best` improved by less than the tolerance over the window.
-    fn stalled(&self, best: &[f64]) -> bool {
-        best.len() > self.window
-            && best[best.len() - 1] >= (1.0 - self.tolerance) * best[best.len() - 1 - self.window]
+    /// Whether, over the window, the best retimed time (first of each pair in `seen`)
+    /// improved by less than `tolerance` and the solve's own (second) by less than
+    /// `solve_tolerance`.
+    fn stalled(&self, seen: &[(f64, f64)]) -> bool {
+        let Some(back) = seen.len().checked_sub(self.window + 1) else { return false };
+        let (now, then) = (seen[seen.len() - 1], seen[back]);
+        now.0 >= (1.0 - self.tolerance) * then.0 && now.1 >= (1.0 - self.solve_tolerance) * then.1
     }
 }
 
@@ -98,11 +117,20 @@ mod tests {
 
     #[test]
     fn a_stall_is_a_window_without_enough_improvement() {
-        let rule = RetimeStall { tolerance: 0.01, window: 2, ..RetimeStall::default() };
-        assert!(!rule.stalled(&[1.0, 1.0]), "a window needs window + 1 values");
-        assert!(rule.stalled(&[1.0, 1.0, 0.995]));
-        assert!(!rule.stalled(&[1.0, 1.0, 0.985]));
-        assert!(!rule.stalled(&[1.2, 1.0, 0.995]), "measured from window iterates back");
+        let rule = RetimeStall {
+            tolerance: 0.01,
+            window: 2,
+            solve_tolerance: 0.05,
+            ..RetimeStall::default()
+        };
+        let own = |best: &[f64]| best.iter().map(|&b| (b, 1.3)).collect::<Vec<_>>();
+        assert!(!rule.stalled(&own(&[1.0, 1.0])), "a window needs window + 1 values");
+        assert!(rule.stalled(&own(&[1.0, 1.0, 0.995])));
+        assert!(!rule.stalled(&own(&[1.0, 1.0, 0.985])));
+        assert!(!rule.stalled(&own(&[1.2, 1.0, 0.995])), "measured from window iterates back");
+        // The solve's own time still falling fast: its path is still changing.
+        assert!(!rule.stalled(&[(1.0, 1.4), (1.0, 1.35), (0.995, 1.3)]));
+        assert!(rule.stalled(&[(1.0, 1.34), (1.0, 1.32), (0.995, 1.3)]));
         assert!(RetimeStall::default().is_valid());
         for bad in [
             RetimeStall { tolerance: 1.0, ..RetimeStall::default() },
@@ -110,6 +138,7 @@ mod tests {
             RetimeStall { window: 0, ..RetimeStall::default() },
             RetimeStall { violation_gate: 0.0, ..RetimeStall::default() },
             RetimeStall { points: 9, ..RetimeStall::default() },
+            RetimeStall { solve_tolerance: -0.1, ..RetimeStall::default() },
         ] {
             assert!(!bad.is_valid(), "{bad:?}");
         }
