@@ -1,14 +1,17 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
-//! [--velocity-peaks true|false] [--retime-stall JSON] [--history] [--no-retime]`: solves every task of the suite
-//! with default settings, retimes each verified solution along its path as the CLI does by
-//! default (`ArmTask::retime`, `[time] retime`), verifies the result independently (the
-//! retimed trajectory by `retimed.rs`) and prints the table, with T / T_ref where
+//! [--velocity-peaks true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
+//! [--no-retime]`: solves every task of the suite with default settings — each solve
+//! stopping its minimization once its path retimed stalls and retiming its verified solution
+//! along that path, as the CLI does by default (`ArmTask::retime_stall`, `ArmTask::retime`,
+//! `[time] retime`) — verifies the result independently (the retimed trajectory by
+//! `retimed.rs`) and prints the table, with T / T_ref where
 //! the stored reference (`bench/reference/t_ref.json`) has a verified solution. `--export`
 //! writes the tasks (with armature's guesses and solutions) for `bench/reference/t_ref.py`.
 //! `--history` prints each task's SCvx iteration table (`IterationTable`: ρ, defects,
 //! violations, λ_tr per iteration) before its line, to see how a solve walks. `--no-retime`
-//! reports the solve's own timing.
+//! reports the solve's own timing (and minimizes it to the end); `--no-retime-stall` retimes
+//! a solve that minimized to the end.
 //!
 //! For studies of a candidate default, on every task alike: `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
@@ -19,8 +22,8 @@
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
 //! points or not (each task's dynamics model chooses by default); `--retime-stall JSON`
-//! stops every task's minimization once its path retimed stalls (`ArmTask::retime_stall`,
-//! the default `RetimeStall` with the object's fields: `'{}'` for the default itself).
+//! changes the rule by which minimization stops once the path retimed stalls (the default
+//! `RetimeStall` with the object's fields).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -36,7 +39,10 @@ fn main() {
         value("--settings"),
         value("--velocity-peaks"),
     )
-    .and_then(|s| s.with_retime_stall(value("--retime-stall")))
+    .and_then(|s| {
+        let on = !args.iter().any(|a| a == "--no-retime" || a == "--no-retime-stall");
+        s.with_retime_stall(on, value("--retime-stall"))
+    })
     .unwrap_or_else(|e| {
         eprintln!("error: {e}");
         std::process::exit(2);

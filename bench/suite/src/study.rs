@@ -20,8 +20,8 @@ pub struct Study {
     pub refine: usize,
     /// Starts of every task's first solve (`Initialization::starts`; 1: the guess alone).
     pub starts: usize,
-    /// Every task's solve stops minimizing once its path retimed stalls
-    /// (`ArmTask::retime_stall`).
+    /// The rule by which every task's solve stops minimizing once its path retimed stalls
+    /// (`ArmTask::retime_stall`; `None`: minimizing to the end).
     pub retime_stall: Option<armature_arm::RetimeStall>,
 }
 
@@ -64,13 +64,21 @@ impl Study {
         Ok(Study { subdivide, settings, velocity_peaks, refine, starts, retime_stall: None })
     }
 
-    /// With `--retime-stall JSON`: every task's `ArmTask::retime_stall`, the default rule
-    /// with the JSON object's fields (`'{}'` for the default itself).
+    /// Every task's `ArmTask::retime_stall` when `on` (as the CLI's default for a retimed
+    /// result): the default rule, or with `--retime-stall JSON` the default with the JSON
+    /// object's fields; off, none.
     ///
     /// # Errors
     /// JSON that is not such an object, or a rule that is not valid.
-    pub fn with_retime_stall(mut self, json: Option<&String>) -> Result<Self, String> {
-        let Some(json) = json else { return Ok(self) };
+    pub fn with_retime_stall(mut self, on: bool, json: Option<&String>) -> Result<Self, String> {
+        self.retime_stall = None;
+        if !on {
+            return Ok(self);
+        }
+        let Some(json) = json else {
+            self.retime_stall = Some(armature_arm::RetimeStall::default());
+            return Ok(self);
+        };
         let rule: armature_arm::RetimeStall =
             serde_json::from_str(json).map_err(|e| format!("--retime-stall {json}: {e}"))?;
         if !rule.is_valid() {
@@ -94,9 +102,7 @@ impl Study {
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
         }
-        if self.retime_stall.is_some() {
-            t.task.retime_stall = self.retime_stall;
-        }
+        t.task.retime_stall = self.retime_stall;
         if let Some(patch) = &self.settings {
             let mut current = serde_json::to_value(&t.task.settings).map_err(|e| e.to_string())?;
             merge(&mut current, patch);
@@ -154,5 +160,23 @@ mod tests {
         assert!(Study::from_args((None, None, Some(&"0".into())), None, None).is_err());
         assert!(Study::from_args((None, None, None), Some(&"[1]".into()), None).is_err());
         assert!(Study::from_args((None, None, None), None, Some(&"yes".into())).is_err());
+    }
+
+    #[test]
+    fn the_retime_stall_rule_is_the_default_when_on_and_its_fields_can_change() {
+        use armature_arm::RetimeStall;
+        let task = crate::generate::suite().into_iter().next().expect("a task");
+        let plain = || Study::from_args((None, None, None), None, None).unwrap();
+        let on = plain().with_retime_stall(true, None).unwrap();
+        assert_eq!(on.apply(task.clone()).unwrap().task.retime_stall, Some(RetimeStall::default()));
+        let off = plain().with_retime_stall(false, Some(&"{}".into())).unwrap();
+        assert_eq!(off.apply(task.clone()).unwrap().task.retime_stall, None);
+        let wide = plain().with_retime_stall(true, Some(&r#"{"window": 6}"#.into())).unwrap();
+        let rule = wide.apply(task).unwrap().task.retime_stall.unwrap();
+        assert_eq!(rule, RetimeStall { window: 6, ..RetimeStall::default() });
+        for bad in [r#"{"window": 0}"#, r#"{"no_such_key": 1}"#, "[1]"] {
+            let e = plain().with_retime_stall(true, Some(&bad.into())).err().unwrap();
+            assert!(e.contains("--retime-stall"), "{e}");
+        }
     }
 }

@@ -186,8 +186,9 @@ pub struct ArmTask {
     /// Solver settings.
     pub settings: PtrSettings,
     /// For a result that will be retimed ([`retime`](Self::retime)): stop minimizing the
-    /// solve's own final time once its path retimed stalls ([`RetimeStall`]). Default
-    /// `None`: the solve minimizes its own time to the end.
+    /// solve's own final time once its path retimed stalls
+    /// ([`RetimeStall`](crate::RetimeStall)). Default `None`: the solve minimizes its own
+    /// time to the end (the CLI sets the default rule with a retimed result).
     pub retime_stall: Option<crate::RetimeStall>,
 }
 

@@ -336,19 +336,21 @@ pub fn retiming(task: &TaskFile, src: Source<'_>) -> Result<bool, LocatedError> 
 }
 
 /// `[time] retime_stall`: the rule that stops the solve's minimization once its path
-/// retimed stalls (`None` when not asked for).
+/// retimed stalls (default: when the result is retimed), or `None`.
 ///
 /// # Errors
 /// `retime_stall = true` on a task that is not retimed.
 fn retime_stall(task: &TaskFile, src: Source<'_>) -> Result<Option<RetimeStall>, LocatedError> {
-    match &task.time.retime_stall {
-        Some(r) if *r.get_ref() && !retiming(task, src)? => Err(src.error(
+    let retimed = retiming(task, src)?;
+    let on = match &task.time.retime_stall {
+        Some(r) if *r.get_ref() && !retimed => return Err(src.error(
             r,
             "retime_stall = true judges the solve by its path retimed: it needs the result retimed (retime and minimize true)",
         )),
-        Some(r) if *r.get_ref() => Ok(Some(RetimeStall::default())),
-        _ => Ok(None),
-    }
+        Some(r) => *r.get_ref(),
+        None => retimed,
+    };
+    Ok(on.then(RetimeStall::default))
 }
 
 /// `[nodes] refine`: the factor of the mesh refinement (1 when not given), checked against

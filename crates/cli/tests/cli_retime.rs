@@ -137,28 +137,42 @@ fn retiming_a_task_whose_time_is_not_minimized_is_a_located_error() {
     assert!(!json.exists(), "nothing written");
 }
 
-#[test]
-fn retime_stall_stops_minimizing_once_the_retimed_time_stalls() {
-    let task = temp_file(
-        "retime-stall",
-        "task.toml",
-        &TASK.replacen("[time]\n", "[time]\nretime_stall = true\n", 1),
-    );
+/// A solve of `text` written to its own folder: its result file.
+fn solved(tag: &str, text: &str) -> Value {
+    let task = temp_file(tag, "task.toml", text);
     let json = task.with_file_name("result.json");
     let (code, _, stderr) =
         armature(&["solve", task.to_str().unwrap(), "-q", "-o", json.to_str().unwrap()]);
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_solved(code, &r, &stderr);
-    // The iterations after the stall only restored feasibility, and are marked so.
-    let history = r["history"].as_array().unwrap();
-    let marked: Vec<bool> = history.iter().map(|h| h["feasibility"].as_bool().unwrap()).collect();
+    r
+}
+
+#[test]
+fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
+    const UR5E: &str = include_str!("../../../examples/ur5e-rigid-body.toml");
+    let stalled = solved("retime-stall", UR5E);
+    let full =
+        solved("retime-stall-off", &UR5E.replacen("[time]\n", "[time]\nretime_stall = false\n", 1));
+    // By default the iterations after the stall only restored feasibility, and are marked so.
+    let marks = |r: &Value| -> Vec<bool> {
+        let history = r["history"].as_array().unwrap();
+        history.iter().map(|h| h["feasibility"].as_bool().unwrap()).collect()
+    };
+    let marked = marks(&stalled);
     let first = marked.iter().position(|&m| m).expect("a feasibility phase");
     assert!(first > 0 && marked[first..].iter().all(|&m| m), "{marked:?}");
-    // Measured: 16 iterations against 42, retimed 1.213 s against 1.136 s.
-    assert!(history.len() < 30, "{} iterations", history.len());
-    let (solve_time, retimed) =
-        (r["final_time"].as_f64().unwrap(), r["retimed"]["final_time"].as_f64().unwrap());
-    assert!(retimed < solve_time && retimed < 1.3, "{retimed} against {solve_time}");
+    assert!(marks(&full).iter().all(|&m| !m));
+    // Measured: 20 iterations against 32, retimed 0.8058 s against 0.8013 s.
+    assert!(marked.len() < marks(&full).len(), "{} against {}", marked.len(), marks(&full).len());
+    let retimed = |r: &Value| r["retimed"]["final_time"].as_f64().unwrap();
+    assert!(
+        retimed(&stalled) < 1.02 * retimed(&full),
+        "{} against {}",
+        retimed(&stalled),
+        retimed(&full)
+    );
+    assert!(retimed(&stalled) < stalled["final_time"].as_f64().unwrap());
 }
 
 #[test]

@@ -27,13 +27,13 @@ use crate::ArmTask;
 /// ```
 /// use armature_arm::RetimeStall;
 ///
-/// let mut seed = armature_arm::fixtures::pick_and_place();
-/// seed.retime_stall = Some(RetimeStall::default());
-/// let solution = seed.plan()?.compile()?.solve()?;
+/// let mut ur5e = armature_arm::fixtures::ur5e_rigid_body();
+/// ur5e.retime_stall = Some(RetimeStall::default());
+/// let solution = ur5e.plan()?.compile()?.solve()?;
 /// assert!(solution.converged());
 /// // The last iterations only restored feasibility.
 /// assert!(solution.history.last().unwrap().feasibility);
-/// let retimed = seed.retime(&solution)?;
+/// let retimed = ur5e.retime(&solution)?;
 /// assert!(retimed.final_time < solution.final_time);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
