@@ -1,7 +1,8 @@
 //! Example tasks shared by the CLI's demos, tests, benches and examples: the seed tutorial's
 //! pick-and-place, its collision variant, and a UR5e pick-and-place with rigid-body dynamics.
-//! Each equals the task file of the same name in the repository's `examples/` (a test of
-//! the CLI checks it).
+//! Each equals the task file of the same name in the repository's `examples/` as the CLI
+//! builds it (a test of the CLI checks it): their results are retimed by default, so their
+//! solves stop minimizing once the path retimed stalls ([`ArmTask::retime_stall`]).
 
 use std::f64::consts::FRAC_1_SQRT_2;
 
@@ -10,7 +11,8 @@ use armature_kinematics::robots;
 use armature_scvx::PtrSettings;
 
 use crate::{
-    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, TimeWindow, Waypoint,
+    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RetimeStall, TimeWindow,
+    Waypoint,
 };
 
 /// Gripper down for arm7: Ry(90°).
@@ -83,7 +85,7 @@ pub fn pick_and_place() -> ArmTask {
         collision: None,
         initialization: Initialization::default(),
         settings: PtrSettings::default(),
-        retime_stall: None,
+        retime_stall: Some(RetimeStall::default()),
     }
 }
 
@@ -154,7 +156,7 @@ pub fn ur5e_rigid_body() -> ArmTask {
     ArmTask {
         chain,
         settings: dynamics.default_settings(),
-        retime_stall: None,
+        retime_stall: Some(RetimeStall::default()),
         dynamics,
         velocity_limit,
         torque_limit,

@@ -58,7 +58,8 @@ pub struct PtrSettings {
     /// smaller gains (a redundant arm's self-motion is such a flat valley: without this rule
     /// the seed arm creeps 1e-4 s per iteration to the iteration cap); short steps repair the
     /// defects instead, and the solve converges by `eps_tr`, `eps_defect` and `eps_vb`. 0
-    /// turns it off. Default 3e-3 (chosen on the benchmark suite, BENCHMARKS.md).
+    /// turns it off; so does a dropped cost ([`Ptr::restore_feasibility_only`]). Default
+    /// 3e-3 (chosen on the benchmark suite, BENCHMARKS.md).
     pub eps_flat: f64,
     /// How the trust-region weight evolves. Default `Adaptive { eta: [0, 0.1, 0.5] }`.
     pub trust_region: TrustRegionUpdate,
