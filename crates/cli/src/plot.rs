@@ -262,7 +262,16 @@ where
         chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?;
     }
     legend(&mut chart)?;
-    let costs = s.history.iter().map(|h| h.cost).filter(|v| v.is_finite());
+    // The iterations that only restored feasibility have no cost (`[time] retime_stall`).
+    let minimizing = || s.history.iter().filter(|h| !h.feasibility && h.cost.is_finite());
+    let costs = minimizing().map(|h| h.cost);
+    let cost_desc = match s.history.iter().find(|h| h.feasibility) {
+        Some(h) => format!(
+            "cost (final time, s; ● accepted, ✕ rejected; from {} only feasibility)",
+            h.iteration
+        ),
+        None => "cost (final time, s; ● accepted, ✕ rejected)".to_string(),
+    };
     let mut chart = ChartBuilder::on(&bottom)
         .margin(8)
         .x_label_area_size(30)
@@ -272,21 +281,16 @@ where
         .configure_mesh()
         .x_desc("iteration")
         .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_desc("cost (final time, s; ● accepted, ✕ rejected)")
+        .y_desc(cost_desc)
         .light_line_style(WHITE)
         .draw()?;
-    let pts: Vec<(f64, f64)> = s
-        .history
-        .iter()
-        .filter(|h| h.cost.is_finite())
-        .map(|h| (h.iteration as f64, h.cost))
-        .collect();
+    let pts: Vec<(f64, f64)> = minimizing().map(|h| (h.iteration as f64, h.cost)).collect();
     chart.draw_series(LineSeries::new(pts.clone(), BLACK.stroke_width(2)))?;
-    let accepted = s.history.iter().filter(|h| h.accepted && h.cost.is_finite());
+    let accepted = minimizing().filter(|h| h.accepted);
     chart.draw_series(
         accepted.map(|h| Circle::new((h.iteration as f64, h.cost), 3, color(2).filled())),
     )?;
-    let rejected = s.history.iter().filter(|h| !h.accepted && h.cost.is_finite());
+    let rejected = minimizing().filter(|h| !h.accepted);
     chart.draw_series(
         rejected.map(|h| Cross::new((h.iteration as f64, h.cost), 4, color(3).stroke_width(2))),
     )?;

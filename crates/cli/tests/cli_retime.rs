@@ -137,23 +137,28 @@ fn retiming_a_task_whose_time_is_not_minimized_is_a_located_error() {
     assert!(!json.exists(), "nothing written");
 }
 
-/// A solve of `text` written to its own folder: its result file.
-fn solved(tag: &str, text: &str) -> Value {
+/// A solve of `text` written to its own folder: its result file, and with `plot` the text
+/// of its convergence plot.
+fn solved(tag: &str, text: &str, plot: bool) -> (Value, Option<String>) {
     let task = temp_file(tag, "task.toml", text);
-    let json = task.with_file_name("result.json");
-    let (code, _, stderr) =
-        armature(&["solve", task.to_str().unwrap(), "-q", "-o", json.to_str().unwrap()]);
+    let (json, plots) = (task.with_file_name("result.json"), task.with_file_name("plots"));
+    let mut args = vec!["solve", task.to_str().unwrap(), "-q", "-o", json.to_str().unwrap()];
+    if plot {
+        args.extend(["--plot", plots.to_str().unwrap()]);
+    }
+    let (code, _, stderr) = armature(&args);
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_solved(code, &r, &stderr);
-    r
+    let svg = plot.then(|| std::fs::read_to_string(plots.join("convergence.svg")).unwrap());
+    (r, svg)
 }
 
 #[test]
 fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
     const UR5E: &str = include_str!("../../../examples/ur5e-rigid-body.toml");
-    let stalled = solved("retime-stall", UR5E);
-    let full =
-        solved("retime-stall-off", &UR5E.replacen("[time]\n", "[time]\nretime_stall = false\n", 1));
+    let (stalled, svg) = solved("retime-stall", UR5E, true);
+    let off = UR5E.replacen("[time]\n", "[time]\nretime_stall = false\n", 1);
+    let full = solved("retime-stall-off", &off, false).0;
     // By default the iterations after the stall only restored feasibility, and are marked so.
     let marks = |r: &Value| -> Vec<bool> {
         let history = r["history"].as_array().unwrap();
@@ -162,6 +167,9 @@ fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
     let marked = marks(&stalled);
     let first = marked.iter().position(|&m| m).expect("a feasibility phase");
     assert!(first > 0 && marked[first..].iter().all(|&m| m), "{marked:?}");
+    // The convergence plot's cost leaves them out and says from where.
+    let svg = svg.unwrap();
+    assert!(svg.contains(&format!("from {} only feasibility", first + 1)), "{svg}");
     assert!(marks(&full).iter().all(|&m| !m));
     // Measured: 20 iterations against 32, retimed 0.8058 s against 0.8013 s.
     assert!(marked.len() < marks(&full).len(), "{} against {}", marked.len(), marks(&full).len());
