@@ -126,14 +126,20 @@ fn retime_false_keeps_the_solve_timing_alone() {
 #[test]
 fn retiming_a_task_whose_time_is_not_minimized_is_a_located_error() {
     let text = TASK.replacen("[time]\n", "[time]\nminimize = false\nretime = true\n", 1);
-    let task = temp_file("retime-fixed", "task.toml", &text);
+    assert_located_error("retime-fixed", &text, "retime", "needs minimize = true");
+}
+
+/// Solving `text` fails with exit code 2 at the line starting with `key`, saying `message`,
+/// and writes nothing.
+fn assert_located_error(tag: &str, text: &str, key: &str, message: &str) {
+    let task = temp_file(tag, "task.toml", text);
     let json = task.with_file_name("result.json");
     let (code, _, stderr) =
         armature(&["solve", task.to_str().unwrap(), "-o", json.to_str().unwrap()]);
     assert_eq!(code, 2, "{stderr}");
-    let line = text.lines().position(|l| l.starts_with("retime")).unwrap() + 1;
+    let line = text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
     assert!(stderr.contains(&format!("task.toml:{line}:")), "{stderr}");
-    assert!(stderr.contains("needs minimize = true"), "{stderr}");
+    assert!(stderr.contains(message), "{stderr}");
     assert!(!json.exists(), "nothing written");
 }
 
@@ -186,13 +192,5 @@ fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
 #[test]
 fn retime_stall_without_a_retimed_result_is_a_located_error() {
     let text = TASK.replacen("[time]\n", "[time]\nretime = false\nretime_stall = true\n", 1);
-    let task = temp_file("retime-stall-off", "task.toml", &text);
-    let json = task.with_file_name("result.json");
-    let (code, _, stderr) =
-        armature(&["solve", task.to_str().unwrap(), "-o", json.to_str().unwrap()]);
-    assert_eq!(code, 2, "{stderr}");
-    let line = text.lines().position(|l| l.starts_with("retime_stall")).unwrap() + 1;
-    assert!(stderr.contains(&format!("task.toml:{line}:")), "{stderr}");
-    assert!(stderr.contains("needs the result retimed"), "{stderr}");
-    assert!(!json.exists(), "nothing written");
+    assert_located_error("retime-stall-off", &text, "retime_stall", "needs the result retimed");
 }

@@ -165,9 +165,15 @@ fn a_monitor_that_drops_the_cost_is_consulted_until_then_and_the_solve_ends_feas
     compiled.set_dilation_guess(&dilation).unwrap();
     let calls = Arc::new(AtomicUsize::new(0));
     let seen = Arc::clone(&calls);
+    let layout = compiled.layout().clone();
     compiled.set_monitor(Some(Monitor::new(move |it, trajectory| {
         seen.fetch_add(1, Ordering::Relaxed);
         assert_eq!(trajectory.nodes, seed::NODES);
+        // The iterate by name without its outputs: the same rows as with them.
+        let (series, tables) =
+            (layout.nodal_series(trajectory).unwrap(), layout.nodal_tables(trajectory).unwrap());
+        assert!(!series.contains_key("ee_position") && tables.contains_key("ee_position"));
+        assert!(series.iter().all(|(k, v)| tables[k] == *v), "{:?}", series.keys());
         if it.iteration >= 8 { Steer::RestoreFeasibilityOnly } else { Steer::Continue }
     })));
     let sol = compiled.solve().unwrap();

@@ -79,7 +79,7 @@ impl ArmTask {
 
     /// The final time of the trajectory whose node tables are `nodes` (`time`, `angle`,
     /// `velocity`, `torque`: a solution's, or an iterate's from
-    /// [`SolutionLayout::nodal_tables`](armature_scvx::SolutionLayout::nodal_tables)) retimed
+    /// [`SolutionLayout::nodal_series`](armature_scvx::SolutionLayout::nodal_series)) retimed
     /// along its path as [`retime`](Self::retime) does, on a grid of about `points` points
     /// (at least 4 per segment; `retime` samples about 2000): a coarser grid estimates the
     /// same time at a fraction of the cost, to follow a solve's progress.

@@ -108,7 +108,7 @@ impl RetimeStall {
             if !it.accepted || !gated {
                 return Steer::Continue;
             }
-            let Ok(tables) = layout.nodal_tables(t) else { return Steer::Continue };
+            let Ok(tables) = layout.nodal_series(t) else { return Steer::Continue };
             let Ok(time) = task.retimed_final_time(&tables, self.points) else {
                 return Steer::Continue;
             };

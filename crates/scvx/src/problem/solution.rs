@@ -69,6 +69,39 @@ impl SolutionLayout {
         x: &[f64],
         u: &[f64],
     ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        let mut t = self.series(times, x, u)?;
+        let (n, m) = (self.n, self.m);
+        if let Some(f) = &self.output_fn {
+            let mut ws = f.workspace();
+            let mut input = vec![0.0; n + m];
+            let mut values = vec![0.0; f.n_outputs()];
+            let mut cols: Vec<Vec<Vec<f64>>> =
+                vec![Vec::with_capacity(times.len()); self.outputs.len()];
+            for (xr, ur) in x.chunks(n).zip(u.chunks(m.max(1))) {
+                input[..n].copy_from_slice(xr);
+                input[n..].copy_from_slice(&ur[..m]);
+                f.eval(&input, &mut ws, &mut values, None).map_err(sym("outputs"))?;
+                for (col, b) in cols.iter_mut().zip(&self.outputs) {
+                    col.push(values[b.offset..b.offset + b.size].to_vec());
+                }
+            }
+            for (col, b) in cols.into_iter().zip(&self.outputs) {
+                t.insert(b.name.clone(), col);
+            }
+        }
+        Ok(t)
+    }
+
+    /// As [`tables`](Self::tables) without the outputs: `time`, every state and control.
+    ///
+    /// # Errors
+    /// Buffers that do not match the layout.
+    pub fn series(
+        &self,
+        times: &[f64],
+        x: &[f64],
+        u: &[f64],
+    ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
         let (n, m) = (self.n, self.m);
         if x.len() != times.len() * n || u.len() != times.len() * m {
             return Err(bad(
@@ -93,24 +126,6 @@ impl SolutionLayout {
         }
         for b in &self.controls {
             t.insert(b.name.clone(), rows(u, m, b));
-        }
-        if let Some(f) = &self.output_fn {
-            let mut ws = f.workspace();
-            let mut input = vec![0.0; n + m];
-            let mut values = vec![0.0; f.n_outputs()];
-            let mut cols: Vec<Vec<Vec<f64>>> =
-                vec![Vec::with_capacity(times.len()); self.outputs.len()];
-            for (xr, ur) in x.chunks(n).zip(u.chunks(m.max(1))) {
-                input[..n].copy_from_slice(xr);
-                input[n..].copy_from_slice(&ur[..m]);
-                f.eval(&input, &mut ws, &mut values, None).map_err(sym("outputs"))?;
-                for (col, b) in cols.iter_mut().zip(&self.outputs) {
-                    col.push(values[b.offset..b.offset + b.size].to_vec());
-                }
-            }
-            for (col, b) in cols.into_iter().zip(&self.outputs) {
-                t.insert(b.name.clone(), col);
-            }
         }
         Ok(t)
     }
@@ -160,13 +175,30 @@ impl SolutionLayout {
         &self,
         t: &Trajectory<'_>,
     ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
-        let dtau = 1.0 / (t.nodes.max(2) - 1) as f64;
-        let mut times = vec![0.0; t.nodes];
-        for k in 1..t.nodes {
-            times[k] = times[k - 1] + t.s[k - 1] * dtau;
-        }
-        self.tables(&times, t.x, t.u)
+        self.tables(&node_times(t), t.x, t.u)
     }
+
+    /// As [`nodal_tables`](Self::nodal_tables) without the outputs (`time`, every state and
+    /// control): what a monitor reads from each iterate, without evaluating the outputs.
+    ///
+    /// # Errors
+    /// As [`series`](Self::series).
+    pub fn nodal_series(
+        &self,
+        t: &Trajectory<'_>,
+    ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
+        self.series(&node_times(t), t.x, t.u)
+    }
+}
+
+/// The node times of a nodal trajectory, from its dilations.
+fn node_times(t: &Trajectory<'_>) -> Vec<f64> {
+    let dtau = 1.0 / (t.nodes.max(2) - 1) as f64;
+    let mut times = vec![0.0; t.nodes];
+    for k in 1..t.nodes {
+        times[k] = times[k - 1] + t.s[k - 1] * dtau;
+    }
+    times
 }
 
 impl Solution {
