@@ -187,3 +187,40 @@ fn a_monitor_that_drops_the_cost_is_consulted_until_then_and_the_solve_ends_feas
     assert!(full.history.iter().all(|h| !h.feasibility));
     assert!(full.final_time < sol.final_time, "{} vs {}", full.final_time, sol.final_time);
 }
+
+#[test]
+fn a_monitor_that_keeps_an_iterate_rewinds_to_it_when_it_drops_the_cost() {
+    use armature_scvx::{Monitor, Steer};
+    let (problem, dilation) = seed_problem();
+    let mut compiled = problem.compile(PtrSettings::default()).unwrap();
+    compiled.set_dilation_guess(&dilation).unwrap();
+    let (keep, drop) = (4, 9);
+    // The states of the reference after every iteration, as an observer sees them.
+    let solve = |compiled: &mut armature_scvx::CompiledProblem| {
+        let mut states: Vec<Vec<f64>> = Vec::new();
+        let sol = compiled.solve_with(|_, t| states.push(t.x.to_vec())).unwrap();
+        solved(&sol);
+        (sol, states)
+    };
+    let distance = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f64>();
+    compiled.set_monitor(Some(Monitor::new(move |it, _| match it.iteration {
+        k if k == keep => Steer::Keep,
+        k if k == drop => Steer::RestoreFeasibilityFromKept,
+        _ => Steer::Continue,
+    })));
+    let (sol, states) = solve(&mut compiled);
+    assert!(sol.history.iter().all(|h| h.feasibility == (h.iteration > drop)));
+    // The first restoring step starts from iteration 4's reference, not from iteration 9's:
+    // the reference after it lies nearer the kept one.
+    let (kept, last, after) = (&states[keep - 1], &states[drop - 1], &states[drop]);
+    assert!(distance(kept, last) > 1e-2, "the test needs the solve to move");
+    assert!(distance(after, kept) < distance(after, last));
+    // Without a kept iterate the same answer restores from the current reference.
+    compiled.set_monitor(Some(Monitor::new(move |it, _| {
+        if it.iteration == drop { Steer::RestoreFeasibilityFromKept } else { Steer::Continue }
+    })));
+    let (here, states) = solve(&mut compiled);
+    assert!(here.history.iter().all(|h| h.feasibility == (h.iteration > drop)));
+    let (last, after) = (&states[drop - 1], &states[drop]);
+    assert!(distance(after, last) < distance(after, kept));
+}

@@ -253,3 +253,57 @@ fn dropping_the_cost_ends_with_a_feasible_trajectory_and_marks_the_iterations() 
     assert!(ptr.cost_on() && again.history.iter().all(|h| !h.feasibility));
     assert_eq!(again.final_time, full.final_time);
 }
+
+#[test]
+fn restoring_feasibility_from_an_earlier_iterate_ends_near_it() {
+    let nodes = 21;
+    let (x, u, s) = poor_guess(nodes);
+    let mut ptr = Ptr::new(problem(nodes), settings()).unwrap();
+    let (xk, uk, sk) = (x.clone(), u.clone(), s.clone());
+    assert!(matches!(ptr.restore_feasibility_from(&xk, &uk, &sk), Err(PtrError::NotRunning)));
+    ptr.start(&x, &u, &s).unwrap();
+    for _ in 0..2 {
+        ptr.step().unwrap();
+    }
+    let t = ptr.trajectory().unwrap();
+    let (xk, uk, sk, tk) = (t.x.to_vec(), t.u.to_vec(), t.s.to_vec(), t.final_time);
+    for _ in 0..3 {
+        assert!(ptr.step().unwrap().status.is_none());
+    }
+    assert_ne!(ptr.trajectory().unwrap().x, &xk[..], "the solve moved on");
+    // A trajectory that does not fit is refused and the solve goes on as it was.
+    let short = &xk[1..];
+    assert!(matches!(
+        ptr.restore_feasibility_from(short, &uk, &sk),
+        Err(PtrError::GuessSize { what: "x", .. })
+    ));
+    let mut bad = uk.clone();
+    bad[3] = f64::NAN;
+    assert!(matches!(
+        ptr.restore_feasibility_from(&xk, &bad, &sk),
+        Err(PtrError::GuessNotFinite { what: "u", index: 3 })
+    ));
+    assert!(ptr.cost_on());
+    ptr.restore_feasibility_from(&xk, &uk, &sk).unwrap();
+    assert!(!ptr.cost_on());
+    let back = ptr.trajectory().unwrap();
+    assert_eq!((back.x, back.u, back.s), (&xk[..], &uk[..], &sk[..]));
+    assert_eq!(back.final_time, tk);
+    let mut last = None;
+    while last.is_none() {
+        last = ptr.step().unwrap().status;
+    }
+    let r = ptr.result().unwrap();
+    assert_eq!(r.status, PtrStatus::Converged, "{:?}", r.history.last());
+    assert!(r.history.iter().all(|h| h.feasibility == (h.iteration > 5)));
+    // Feasible, as from the current reference.
+    assert!(r.history.last().unwrap().max_defect < 1e-6);
+    assert!(r.x[(nodes / 2) * 2] >= 0.6 - 1e-6);
+    let end = &r.x[(nodes - 1) * 2..];
+    assert!((end[0] - 1.0).abs() < 1e-6 && end[1].abs() < 1e-6, "{end:?}");
+    // The first restoring step starts from the kept trajectory, not the last one.
+    let first = r.history.iter().find(|h| h.feasibility).unwrap();
+    let fifth = r.history[4].final_time;
+    assert!((first.final_time - tk).abs() < (first.final_time - fifth).abs());
+    assert!(matches!(ptr.restore_feasibility_from(&xk, &uk, &sk), Err(PtrError::NotRunning)));
+}

@@ -12,7 +12,9 @@ use crate::ArmTask;
 /// (estimated on a coarse grid, [`ArmTask::retimed_final_time`]) has improved by less than
 /// `tolerance` (relative) over the last `window` accepted iterates whose largest nodal
 /// violation is within `violation_gate`, while the solve's own final time improved by less
-/// than `solve_tolerance` over them.
+/// than `solve_tolerance` over them. It then restores feasibility from the iterate whose path
+/// retimed fastest among those whose largest nodal violation is within `rewind_gate`
+/// (`rewind`), or from the current one if that is the fastest or none qualifies.
 ///
 /// The solve's own final time belongs to its control parametrization (first-order-hold
 /// torques on the nodes); the retiming replaces it with the fastest timing along the path.
@@ -22,6 +24,12 @@ use crate::ArmTask;
 /// a path that cuts a corner retimes faster), and a solve whose own time still falls fast
 /// is still reshaping its path: `solve_tolerance` waits for that. This trades a little of
 /// the retimed time for iterations (measured on the benchmark suite, `BENCHMARKS.md`).
+///
+/// Minimizing its own time, a solve may also walk its path away from the one that retimes
+/// fastest (on some tasks the retimed time rises by several percent while the solve's own
+/// falls): the rewind goes back to the best nearly feasible iterate. Its gate is tight because
+/// an iterate that still leaves a waypoint or a range cuts a corner that the restoration must
+/// put back, at a cost the retimed time does not show.
 ///
 /// # Example
 /// ```
@@ -65,6 +73,11 @@ pub struct RetimeStall {
     pub solve_tolerance: f64,
     /// Points of the coarse retiming grid (at least 4 per segment). Default 200.
     pub points: usize,
+    /// At the stall, restore feasibility from the counted iterate whose path retimed fastest
+    /// ([`Steer::RestoreFeasibilityFromKept`]) rather than from the current one. Default true.
+    pub rewind: bool,
+    /// Largest nodal violation of an iterate that may be kept to rewind to. Default 1e-4.
+    pub rewind_gate: f64,
 }
 
 impl Default for RetimeStall {
@@ -75,18 +88,21 @@ impl Default for RetimeStall {
             violation_gate: 1e-2,
             solve_tolerance: 0.02,
             points: 200,
+            rewind: true,
+            rewind_gate: 1e-4,
         }
     }
 }
 
 impl RetimeStall {
-    /// Whether the settings are usable: a tolerance in `[0, 1)`, a window of 1 or more, a
-    /// positive gate, a solve tolerance of 0 or more, 10 points or more.
+    /// Whether the settings are usable: a tolerance in `[0, 1)`, a window of 1 or more,
+    /// positive gates, a solve tolerance of 0 or more, 10 points or more.
     pub fn is_valid(&self) -> bool {
         (0.0..1.0).contains(&self.tolerance)
             && self.solve_tolerance >= 0.0
             && self.window >= 1
             && self.violation_gate > 0.0
+            && self.rewind_gate > 0.0
             && self.points >= 10
     }
 
@@ -97,10 +113,13 @@ impl RetimeStall {
         // Per counted iterate: the best retimed time so far, and the solve's own.
         let mut seen: Vec<(f64, f64)> = Vec::new();
         let mut last_iteration = 0;
+        // The retimed time of the iterate kept to rewind to.
+        let mut kept: Option<f64> = None;
         Monitor::new(move |it: &Iteration, t: &Trajectory<'_>| {
             // A new solve of the same problem starts its own record.
             if it.iteration <= last_iteration {
                 seen.clear();
+                kept = None;
             }
             last_iteration = it.iteration;
             // A NaN violation (no candidate evaluated) does not count either.
@@ -112,10 +131,27 @@ impl RetimeStall {
             let Ok(time) = task.retimed_final_time(&tables, self.points) else {
                 return Steer::Continue;
             };
+            let keepable = self.rewind && it.max_violation <= self.rewind_gate;
+            let new_best = keepable && kept.is_none_or(|k| time < k);
+            if new_best {
+                kept = Some(time);
+            }
             let so_far = seen.last().map_or(time, |b| b.0.min(time));
             seen.push((so_far, t.final_time));
-            if self.stalled(&seen) { Steer::RestoreFeasibilityOnly } else { Steer::Continue }
+            Self::steer(self.stalled(&seen), new_best, kept.is_some_and(|k| k < time))
         })
+    }
+
+    /// The answer to a counted iterate: at a stall, restore feasibility — from the kept
+    /// iterate if it retimes faster than this one (`kept_faster`), else from here; before it,
+    /// keep this iterate if it is the fastest nearly feasible one so far (`new_best`).
+    fn steer(stalled: bool, new_best: bool, kept_faster: bool) -> Steer {
+        match (stalled, kept_faster, new_best) {
+            (true, true, _) => Steer::RestoreFeasibilityFromKept,
+            (true, false, _) => Steer::RestoreFeasibilityOnly,
+            (false, _, true) => Steer::Keep,
+            (false, _, false) => Steer::Continue,
+        }
     }
 
     /// Whether, over the window, the best retimed time (first of each pair in `seen`)
@@ -149,6 +185,12 @@ mod tests {
         assert!(!rule.stalled(&[(1.0, 1.4), (1.0, 1.35), (0.995, 1.3)]));
         assert!(rule.stalled(&[(1.0, 1.34), (1.0, 1.32), (0.995, 1.3)]));
         assert!(RetimeStall::default().is_valid());
+        // What it answers: rewind only to a kept iterate that retimes faster.
+        assert_eq!(RetimeStall::steer(true, false, true), Steer::RestoreFeasibilityFromKept);
+        assert_eq!(RetimeStall::steer(true, true, false), Steer::RestoreFeasibilityOnly);
+        assert_eq!(RetimeStall::steer(true, false, false), Steer::RestoreFeasibilityOnly);
+        assert_eq!(RetimeStall::steer(false, true, false), Steer::Keep);
+        assert_eq!(RetimeStall::steer(false, false, true), Steer::Continue);
         for bad in [
             RetimeStall { tolerance: 1.0, ..RetimeStall::default() },
             RetimeStall { tolerance: f64::NAN, ..RetimeStall::default() },
@@ -156,6 +198,7 @@ mod tests {
             RetimeStall { violation_gate: 0.0, ..RetimeStall::default() },
             RetimeStall { points: 9, ..RetimeStall::default() },
             RetimeStall { solve_tolerance: -0.1, ..RetimeStall::default() },
+            RetimeStall { rewind_gate: f64::NAN, ..RetimeStall::default() },
         ] {
             assert!(!bad.is_valid(), "{bad:?}");
         }

@@ -1,5 +1,6 @@
 //! A caller's judgement of a running solve's iterates: [`Monitor`], which may tell the solve
-//! to drop its cost and only restore feasibility ([`Steer`]).
+//! to keep an iterate, and to drop its cost and only restore feasibility — near the current
+//! reference or near the kept iterate ([`Steer`]).
 
 use super::*;
 
@@ -8,9 +9,17 @@ use super::*;
 pub enum Steer {
     /// Go on as before.
     Continue,
+    /// Go on, keeping this iterate (a copy of the reference) as the one to come back to
+    /// ([`RestoreFeasibilityFromKept`](Self::RestoreFeasibilityFromKept)); it replaces any
+    /// iterate kept before.
+    Keep,
     /// Drop the cost: only restore feasibility near the current reference
     /// ([`Ptr::restore_feasibility_only`]). Asked once; later answers are not read.
     RestoreFeasibilityOnly,
+    /// Drop the cost and go back to the kept iterate: only restore feasibility near it
+    /// ([`Ptr::restore_feasibility_from`]); near the current reference if none was kept.
+    /// Asked once, as [`RestoreFeasibilityOnly`](Self::RestoreFeasibilityOnly).
+    RestoreFeasibilityFromKept,
 }
 
 /// A judgement of a running solve's iterates by the caller's own measure, consulted after
@@ -67,6 +76,8 @@ impl CompiledProblem {
         mut observer: impl FnMut(&Iteration, &Trajectory<'_>),
     ) -> Result<PtrResult, PtrError> {
         self.ptr.start(x, u, s)?;
+        // The iterate a monitor keeps: allocated once, at its first `Keep`.
+        let mut kept: Option<[Vec<f64>; 3]> = None;
         loop {
             let it = self.ptr.step()?;
             let mut steer = Steer::Continue;
@@ -79,10 +90,33 @@ impl CompiledProblem {
             if it.status.is_some() {
                 break;
             }
-            if steer == Steer::RestoreFeasibilityOnly {
-                self.ptr.restore_feasibility_only()?;
+            match (steer, &kept) {
+                (Steer::Continue, _) => {}
+                (Steer::Keep, _) => {
+                    if let Some(t) = self.ptr.trajectory() {
+                        keep(&mut kept, &t);
+                    }
+                }
+                (Steer::RestoreFeasibilityFromKept, Some([x, u, s])) => {
+                    self.ptr.restore_feasibility_from(x, u, s)?;
+                }
+                (Steer::RestoreFeasibilityOnly | Steer::RestoreFeasibilityFromKept, _) => {
+                    self.ptr.restore_feasibility_only()?;
+                }
             }
         }
         self.ptr.result().ok_or(PtrError::NotRunning)
+    }
+}
+
+/// Copies `t`'s states, controls and dilations into `kept` (allocated the first time).
+fn keep(kept: &mut Option<[Vec<f64>; 3]>, t: &Trajectory<'_>) {
+    match kept {
+        Some([x, u, s]) => {
+            x.copy_from_slice(t.x);
+            u.copy_from_slice(t.u);
+            s.copy_from_slice(t.s);
+        }
+        None => *kept = Some([t.x.to_vec(), t.u.to_vec(), t.s.to_vec()]),
     }
 }

@@ -49,34 +49,17 @@ impl Ptr {
     /// # Errors
     /// As [`solve`](Self::solve).
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
-        let (n, m, nn) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
-        for (what, v, len) in [("x", x, nn * n), ("u", u, nn * m), ("s", s, nn)] {
-            if v.len() != len {
-                return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
-            }
-            if let Some(index) = v.iter().position(|v| !v.is_finite()) {
-                return Err(PtrError::GuessNotFinite { what, index });
-            }
-        }
+        check_guess(self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes, (x, u, s))?;
         let mut st = match self.state.take() {
             Some(st) => st,
             None => Box::new(self.iterate()),
         };
-        st.xb.copy_from_slice(x);
-        st.ub.copy_from_slice(u);
-        st.sb.copy_from_slice(s);
-        let t0 = Instant::now();
-        let disc = self.ocp.dynamics.discretize(
-            x,
-            u,
-            s,
-            &self.settings.discretization,
-            &mut self.dws,
-            &mut st.dbar,
-        );
-        st.timings =
-            Timings { discretization_ms: t0.elapsed().as_secs_f64() * 1e3, ..Timings::default() };
-        disc?;
+        st.timings = Timings::default();
+        let disc = self.set_reference(&mut st, x, u, s);
+        if let Err(e) = disc {
+            self.state = Some(st);
+            return Err(e);
+        }
         st.lam_vc.fill(self.settings.lam_vc);
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
@@ -85,15 +68,12 @@ impl Ptr {
         if let Some(native) = st.native.as_mut() {
             native.restart();
         }
-        st.hess_ready.fill(false);
         // Nor from its multipliers (the exact curvature and the Lagrangian merit read them).
         st.duals.fill(0.0);
-        st.linearized = false;
         st.history.clear();
         // Room for a typical solve; a huge cap must not reserve its whole history up front.
         st.history.reserve(self.settings.max_iterations.min(MAX_HISTORY_RESERVE));
         st.status = None;
-        st.ev.fgrid_reference = false;
         let prices = (&st.lam_vc[..], &st.lam_vb[..]);
         (st.jbar, st.tf, _, _) =
             self.merit(x, u, s, &st.dbar, &mut st.ev, prices, GridAt::Reference);
@@ -141,6 +121,70 @@ impl Ptr {
             self.merit(xb, ub, sb, &st.dbar, &mut st.ev, prices, GridAt::Reference);
         self.state = Some(st);
         Ok(())
+    }
+
+    /// Drops the cost of the running solve as [`restore_feasibility_only`](
+    /// Self::restore_feasibility_only) does, and moves its reference back to `(x, u, s)` (an
+    /// earlier iterate of the same solve, as a monitor keeps it): the solve then restores
+    /// feasibility near that trajectory instead of the current one. The weights, the trust
+    /// region, the multipliers and the history carry on.
+    ///
+    /// # Errors
+    /// [`PtrError::NotRunning`] before [`start`](Self::start) or after a final iteration;
+    /// [`PtrError::GuessSize`] / [`PtrError::GuessNotFinite`] for a trajectory that does not fit;
+    /// a dynamics evaluation error.
+    pub fn restore_feasibility_from(
+        &mut self,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+    ) -> Result<(), PtrError> {
+        check_guess(self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes, (x, u, s))?;
+        let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
+        let out = if st.status.is_some() {
+            Err(PtrError::NotRunning)
+        } else {
+            self.set_reference(&mut st, x, u, s)
+        };
+        if out.is_ok() {
+            if let Some(native) = st.native.as_mut() {
+                native.restart();
+            }
+            // The kept trajectory's final time (its merit follows, without the cost).
+            let prices = (&st.lam_vc[..], &st.lam_vb[..]);
+            (_, st.tf, _, _) = self.merit(x, u, s, &st.dbar, &mut st.ev, prices, GridAt::Reference);
+        }
+        self.state = Some(st);
+        out?;
+        self.restore_feasibility_only()
+    }
+
+    /// Sets the reference to `(x, u, s)` (checked) and discretizes it; the linearization and
+    /// the curvature are then stale. The discretization's time is added to the timings.
+    fn set_reference(
+        &mut self,
+        st: &mut Iterate,
+        x: &[f64],
+        u: &[f64],
+        s: &[f64],
+    ) -> Result<(), PtrError> {
+        st.xb.copy_from_slice(x);
+        st.ub.copy_from_slice(u);
+        st.sb.copy_from_slice(s);
+        let t0 = Instant::now();
+        let disc = self.ocp.dynamics.discretize(
+            x,
+            u,
+            s,
+            &self.settings.discretization,
+            &mut self.dws,
+            &mut st.dbar,
+        );
+        st.timings.discretization_ms += t0.elapsed().as_secs_f64() * 1e3;
+        st.hess_ready.fill(false);
+        st.linearized = false;
+        st.ev.fgrid_reference = false;
+        disc.map_err(Into::into)
     }
 
     /// Whether the running solve still minimizes its cost (see
@@ -195,4 +239,23 @@ impl Ptr {
             self.ocp.dynamics.output_with_grid(nn, self.settings.discretization.substeps)
         }
     }
+}
+
+/// Checks a trajectory `(x, u, s)` for a problem of `n` states, `m` controls and `nodes`
+/// nodes: sizes, finite values.
+fn check_guess(
+    n: usize,
+    m: usize,
+    nodes: usize,
+    (x, u, s): (&[f64], &[f64], &[f64]),
+) -> Result<(), PtrError> {
+    for (what, v, len) in [("x", x, nodes * n), ("u", u, nodes * m), ("s", s, nodes)] {
+        if v.len() != len {
+            return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
+        }
+        if let Some(index) = v.iter().position(|v| !v.is_finite()) {
+            return Err(PtrError::GuessNotFinite { what, index });
+        }
+    }
+    Ok(())
 }
