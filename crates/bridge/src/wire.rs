@@ -4,8 +4,10 @@
 use iceoryx2::prelude::*;
 use serde::Serialize;
 
-/// Version of the wire layout; a subscriber refuses messages of another version.
-pub const FORMAT_VERSION: u32 = 1;
+/// Version of the wire layout; a subscriber refuses messages of another version. 2: the
+/// progress message marks the iterations that only restored feasibility
+/// ([`Progress::feasibility`]).
+pub const FORMAT_VERSION: u32 = 2;
 
 /// The blocks of a trajectory row, in order: `[time | angle | velocity | control |
 /// ee_position | frames]`. Each block's width is in the header (0 when absent).
@@ -204,6 +206,11 @@ pub struct Progress {
     pub accepted: u32,
     /// Interior-point iterations of the subproblem.
     pub subproblem_iterations: u32,
+    /// 1 if the iteration only restored feasibility (the solve had dropped its cost, which
+    /// then reads 0; format version 2 on).
+    pub feasibility: u32,
+    /// Unused (keeps the fields after it 8-byte aligned without implicit padding).
+    pub reserved: u32,
     /// Cost of the candidate.
     pub cost: f64,
     /// Trust-region term ‖Δz‖².

@@ -122,6 +122,7 @@ impl Streamer {
             iteration: it.iteration as u64,
             accepted: u32::from(it.accepted),
             subproblem_iterations: it.subproblem_iterations,
+            feasibility: u32::from(it.feasibility),
             cost: it.cost,
             j_tr: it.j_tr,
             j_vc: it.j_vc,

@@ -270,3 +270,33 @@ fn a_refined_solve_streams_both_stages_as_one() {
     assert!(before.iter().all(|l| l["status"] == "running"), "one end only");
     assert_eq!(end["rows"].as_array().unwrap().len(), 21);
 }
+
+#[test]
+fn the_progress_stream_marks_the_iterations_that_only_restored_feasibility() {
+    let run = format!("cli-feasible-{}", std::process::id());
+    let (listener, _rest) = listen(&["listen", &run, "--timeout", "120"]);
+    let dir = scratch("stream-feasible");
+    let result = dir.path().join("result.json");
+    let (code, _, stderr) =
+        armature(&["demo", "-q", "--stream", &run, "-o", result.to_str().unwrap()]);
+    let out = listener.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    assert_solved(code, &r, &stderr);
+    // The demo stops minimizing once its retimed path stalls: its last iteration only
+    // restored feasibility, and the listener says so instead of a cost of 0.
+    let history = r["history"].as_array().unwrap();
+    assert_eq!(history.last().unwrap()["feasibility"], true);
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let progress: Vec<&str> = stdout.lines().filter(|l| l.starts_with("progress")).collect();
+    let last = progress.last().unwrap();
+    assert!(last.contains(&format!("iteration {:>3}", history.len())), "{last}");
+    assert!(last.contains("cost feasible"), "{last}");
+    // The others carry the solve's final time as their cost.
+    let costs: Vec<f64> = progress
+        .iter()
+        .filter(|l| !l.contains("cost feasible"))
+        .map(|l| l.split("cost ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(!costs.is_empty() && costs.iter().all(|c| (1.0..2.0).contains(c)), "{costs:?}");
+}

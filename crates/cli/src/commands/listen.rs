@@ -68,10 +68,10 @@ pub fn run(args: &ListenArgs, out: &mut dyn Write) -> Result<(), CliError> {
             if !args.json {
                 writeln!(
                     out,
-                    "progress   iteration {:>3} {} cost {:.6} J_tr {:.2e} J_vc {:.2e} J_vb {:.2e} defect {:.2e} violation {:.2e} ({:.2} + {:.2} ms)",
+                    "progress   iteration {:>3} {} cost {} J_tr {:.2e} J_vc {:.2e} J_vb {:.2e} defect {:.2e} violation {:.2e} ({:.2} + {:.2} ms)",
                     p.iteration,
                     if p.accepted == 1 { "accepted" } else { "rejected" },
-                    p.cost,
+                    if p.feasibility == 1 { "feasible".to_string() } else { format!("{:.6}", p.cost) },
                     p.j_tr,
                     p.j_vc,
                     p.j_vb,
