@@ -21,16 +21,23 @@ time. A solution that leaves an orientation range between the samples by more th
 tolerance is solved again with the range tightened by 1.5x the excess (stored as `backoff`). Starts: armature's solution and the IK guess at armature's guess durations; the best
 that passes the dense check (1 ms, 1e-4) is kept (with --first: the first, guess first).
 T_ref is therefore the best local optimum found, not a certificate of global optimality.
-Not modelled: rigid-body dynamics (those tasks get no reference), self-collision (the suite's
-verification checks it on armature's solutions; leaving it out can only lower T_ref, so the
-ratios T / T_ref stay conservative).
+Rigid-body tasks (M(q) q'' + C(q, q') q' + g(q) = tau): the accelerations stay the control
+(first-order hold, integrated exactly), free, and the torques are what the recursive
+Newton-Euler algorithm (written out here on the robot's DH frames, checked against Pinocchio
+when it is installed) asks for the motion: bounded at every grid point and at the quarter
+points of each interval, with a small margin that the dense check backs off further where the
+torque between the samples needs it (stored as `torque_margin`); a tiny weight on the
+accelerations' changes keeps a joint of small inertia from chattering between grid points.
+Not modelled: self-collision (the suite's verification checks it on armature's solutions;
+leaving it out can only lower T_ref, so the ratios T / T_ref stay conservative).
 
 Usage:
     cargo run --release -p armature-suite -- --export /tmp/tasks.json
     python3 bench/reference/t_ref.py /tmp/tasks.json bench/reference/t_ref.json [--jobs 2]
         [--filter NAME] [--intervals 30] [--first]
 
-Needs `pip install casadi numpy` (IPOPT is bundled with casadi).
+Needs `pip install casadi numpy` (IPOPT is bundled with casadi); `pip install pin` for the
+rigid-body dynamics' check against Pinocchio.
 """
 
 import argparse
@@ -53,6 +60,20 @@ TOLERANCE = 1e-4
 BACKOFF_ROUNDS = 3
 # IPOPT's time budget per start, seconds.
 MAX_SECONDS = 300
+# Rigid-body tasks: the torque rows (at the grid points and TORQUE_SAMPLES) keep this fraction
+# of each limit in reserve, so that the torque between the samples (a nonlinear function of
+# the motion there) stays inside the limit on the dense check.
+TORQUE_MARGIN = 1e-3
+# Where in each interval the torque rows sit besides its start (fractions of it): the torque
+# is a nonlinear function of the motion, and with the midpoint alone it left the limits by up
+# to 0.6 % between the samples.
+TORQUE_SAMPLES = (0.25, 0.5, 0.75)
+# Rigid-body tasks: a joint of small inertia (the UR5e's last wrist, 1.3e-4 kg m^2) can switch
+# its acceleration between +-2000 rad/s^2 from one grid point to the next at no cost in time,
+# and the torque of the joints it couples to then leaves the limits between the samples. This
+# weight on the squared changes of the accelerations (per 1000 rad/s^2) picks the smooth
+# motion among those of the same final time; it moves the final time by about 1e-6 s.
+SMOOTHING = 1e-6
 
 ARM7 = (0.340, 0.300, 0.250, 0.150)
 UR5E_DH = [
@@ -135,10 +156,96 @@ def segment_distance_sq(c, a, b):
     return ca.dot(d, d)
 
 
+def rnea_function(spec):
+    """tau(q, v, a) of the rigid-body model, by the recursive Newton-Euler algorithm written
+    out here on the robot's own DH frames (world-frame form): link i moves with DH frame i, its
+    joint turns about z of frame i-1. The links' mass properties come with the task (mass,
+    centre of mass and inertia about it, in the base frame at q = 0) and are moved into their
+    frames once."""
+    n = len(spec["q_lo"])
+    links = spec["links"]
+    gravity = np.array(spec["gravity"], dtype=float)
+    zero = frames(spec["robot"], ca.DM.zeros(n))
+    local = []
+    for i, link in enumerate(links):
+        r0 = np.array(zero[i + 1][0])
+        p0 = np.array(zero[i + 1][1]).ravel()
+        xx, xy, xz, yy, yz, zz = link["inertia"]
+        inertia_w = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        com = r0.T @ (np.array(link["com"]) - p0)
+        local.append((link["mass"], com, r0.T @ inertia_w @ r0))
+    q, v, a = ca.SX.sym("q", n), ca.SX.sym("v", n), ca.SX.sym("a", n)
+    fs = frames(spec["robot"], q)
+    w, dw, acc = ca.SX.zeros(3), ca.SX.zeros(3), ca.SX(-gravity)
+    kin = []
+    for i in range(n):
+        z = fs[i][0][:, 2]
+        r, o = fs[i + 1]
+        dw = dw + z * a[i] + ca.cross(w, z * v[i])
+        w = w + z * v[i]
+        # The joint's axis passes through o_{i-1}: the body turns about it.
+        d = o - fs[i][1]
+        acc = acc + ca.cross(dw, d) + ca.cross(w, ca.cross(w, d))
+        m, com, inertia = local[i]
+        c = ca.mtimes(r, ca.DM(com))
+        acc_c = acc + ca.cross(dw, c) + ca.cross(w, ca.cross(w, c))
+        iw = ca.mtimes([r, ca.DM(inertia), r.T])
+        kin.append((z, fs[i][1], o, o + c, m * acc_c, ca.mtimes(iw, dw) + ca.cross(w, ca.mtimes(iw, w))))
+    force, moment = ca.SX.zeros(3), ca.SX.zeros(3)
+    tau = [None] * n
+    for i in reversed(range(n)):
+        z, o_prev, o, pc, f_c, n_c = kin[i]
+        # Moment about o_{i-1}: the link's own, its force at the centre of mass, and what
+        # the next link passes on at o_i.
+        moment = n_c + ca.cross(pc - o_prev, f_c) + moment + ca.cross(o - o_prev, force)
+        force = f_c + force
+        tau[i] = ca.dot(z, moment)
+    return ca.Function("rnea", [q, v, a], [ca.vertcat(*tau)])
+
+
+def check_rnea(spec, rnea, samples=20, seed=0):
+    """The largest difference between `rnea` and Pinocchio's RNEA on the same robot (built
+    here from the DH table and the links' mass properties), at random states; None without
+    Pinocchio (`pip install pin`)."""
+    try:
+        import pinocchio as pin
+    except ImportError:
+        return None
+    n = len(spec["q_lo"])
+    table = UR5E_DH if spec["robot"] == "ur5e" else IIWA7_DH
+    model = pin.Model()
+    model.gravity.linear = np.array(spec["gravity"], dtype=float)
+    zero = frames(spec["robot"], ca.DM.zeros(n))
+    parent, placement = 0, pin.SE3.Identity()
+    for i, (d, a, alpha) in enumerate(table):
+        joint = model.addJoint(parent, pin.JointModelRZ(), placement, f"j{i}")
+        # Frame i is the joint's frame moved by D_i = Tz(d) Tx(a) Rx(alpha).
+        rx = np.array(rot("x", alpha))
+        dh = pin.SE3(rx, np.array([a, 0.0, d]))
+        r0, p0 = np.array(zero[i + 1][0]), np.array(zero[i + 1][1]).ravel()
+        link = spec["links"][i]
+        xx, xy, xz, yy, yz, zz = link["inertia"]
+        inertia_w = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        com_local, inertia_local = r0.T @ (np.array(link["com"]) - p0), r0.T @ inertia_w @ r0
+        com_joint = dh.rotation @ com_local + dh.translation
+        inertia_joint = dh.rotation @ inertia_local @ dh.rotation.T
+        model.appendBodyToJoint(joint, pin.Inertia(link["mass"], com_joint, inertia_joint),
+                                pin.SE3.Identity())
+        parent, placement = joint, dh
+    data = model.createData()
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(samples):
+        q, v, a = rng.uniform(-3, 3, n), rng.uniform(-3, 3, n), rng.uniform(-20, 20, n)
+        ours = np.array(rnea(q, v, a)).ravel()
+        worst = max(worst, float(np.max(np.abs(ours - pin.rnea(model, data, q, v, a)))))
+    return worst
+
+
 class Task:
     """The task's constraint functions of q, built once."""
 
-    def __init__(self, spec, backoff=0.0):
+    def __init__(self, spec, backoff=0.0, torque_margin=TORQUE_MARGIN):
         self.spec = spec
         self.n = len(spec["q_lo"])
         q = ca.SX.sym("q", self.n)
@@ -154,6 +261,8 @@ class Task:
             rows.append((3 - ca.trace(ca.mtimes(ca.DM(rd).T, r))) / bound)
         self.orient = ca.Function("orient", [q], [ca.vertcat(*rows) if rows else ca.DM.zeros(0)])
         self.angle = ca.Function("angle", [q], [r])
+        self.rnea = rnea_function(spec) if spec["rigid_body"] else None
+        self.torque_margin = torque_margin
         # Ball clearance, squared, scaled: d^2 / (rc + rb + margin)^2 >= 1; and without the
         # margin, for the dense check: d - rc - rb.
         clear, plain = [], []
@@ -184,8 +293,10 @@ def transcribe(task, k):
     events = spec["events"]
     phases = len(events) - 1
     g_count = phases * k + 1
-    inertia = np.array(spec["inertia"])
-    a_max = np.array(spec["tau_max"]) / inertia
+    tau_max = np.array(spec["tau_max"])
+    # Decoupled: a = tau / I, bounded directly. Rigid-body: tau = RNEA(q, v, a) bounded by
+    # rows at the grid points and interval midpoints, a itself free.
+    a_max = tau_max / np.array(spec["inertia"]) if task.rnea is None else np.full(n, np.inf)
     qv, vv, av = ca.MX.sym("q", n, g_count), ca.MX.sym("v", n, g_count), ca.MX.sym("a", n, g_count)
     hv = ca.MX.sym("h", phases)
     g, lb, ub = [], [], []
@@ -195,6 +306,11 @@ def transcribe(task, k):
         size = expr.shape[0]
         lb.append(np.broadcast_to(lo, size).astype(float))
         ub.append(np.broadcast_to(hi, size).astype(float))
+
+    def torque(qe, ve, ae):
+        if task.rnea is not None:
+            bound = 1 - task.torque_margin
+            add(task.rnea(qe, ve, ae) / ca.DM(tau_max), -bound, bound)
 
     def path(qe, phase):
         node_lo, node_hi = events[phase], events[phase + 1]
@@ -226,7 +342,12 @@ def transcribe(task, k):
             qm, _ = foh(qv[:, j], vv[:, j], av[:, j], av[:, j + 1], dt, dt / 2)
             path(qm, p)
             path(qv[:, j], p)
+            torque(qv[:, j], vv[:, j], av[:, j])
+            for frac in TORQUE_SAMPLES:
+                qs, vs = foh(qv[:, j], vv[:, j], av[:, j], av[:, j + 1], dt, frac * dt)
+                torque(qs, vs, (1 - frac) * av[:, j] + frac * av[:, j + 1])
         path(qv[:, (p + 1) * k], p)
+    torque(qv[:, -1], vv[:, -1], av[:, -1])
     for w in spec["waypoints"]:
         j = events.index(w["node"]) * k
         d = task.ee(qv[:, j]) - ca.DM(w["position"])
@@ -242,7 +363,11 @@ def transcribe(task, k):
     v_lo[-n:] = v_hi[-n:] = 0
     x_lo = np.concatenate([q_lo, v_lo, -np.tile(a_max, g_count), np.full(phases, 1e-3)])
     x_hi = np.concatenate([q_hi, v_hi, np.tile(a_max, g_count), np.full(phases, spec["t_max"])])
-    nlp = {"x": x, "f": ca.sum1(hv), "g": ca.vertcat(*g)}
+    f = ca.sum1(hv)
+    if task.rnea is not None:
+        da = (av[:, 1:] - av[:, :-1]) / 1000.0
+        f = f + SMOOTHING * ca.sumsqr(da)
+    nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
     return nlp, (x_lo, x_hi), (np.concatenate(lb), np.concatenate(ub)), g_count
 
 
@@ -278,6 +403,7 @@ def dense_check(task, times, q_grid, v_grid, a_grid):
             worst[0], worst[1] = float(value), what
 
     q_lo, q_hi, vmax = map(np.array, (spec["q_lo"], spec["q_hi"], spec["qd_max"]))
+    tau_max = np.array(spec["tau_max"])
     events = spec["events"]
     k = (len(times) - 1) // (len(events) - 1)
     node_times = {}
@@ -291,6 +417,10 @@ def dense_check(task, times, q_grid, v_grid, a_grid):
             t = times[j] + s
             note(max(np.max(q - q_hi), np.max(q_lo - q)), f"joint limits at t={t:.3f}")
             note(np.max(np.abs(v) - vmax), f"velocity limits at t={t:.3f}")
+            if task.rnea is not None:
+                a = a_grid[j] + (a_grid[j + 1] - a_grid[j]) * s / h
+                tau = np.array(task.rnea(q, v, a)).ravel()
+                note(np.max(np.abs(tau) - tau_max), f"torque limits at t={t:.3f}")
             p_ee = np.array(task.ee(q)).ravel()
             if spec["table"] is not None:
                 note(spec["table"] - p_ee[2], f"table at t={t:.3f}")
@@ -313,10 +443,11 @@ def dense_check(task, times, q_grid, v_grid, a_grid):
 def starts(spec, k):
     """Armature's solution, its IK guess at its guess durations, and those scaled."""
     out = []
-    inertia = np.array(spec["inertia"])
     if spec.get("armature"):
         s = spec["armature"]
-        accel = np.array(s["torques"]) / inertia
+        # Rigid-body: the accelerations from the interpolated angles (no forward dynamics
+        # here).
+        accel = None if spec["rigid_body"] else np.array(s["torques"]) / np.array(spec["inertia"])
         out.append(("armature", interp_start(spec, s["times"], s["angles"], accel, k)))
     if spec.get("guess"):
         d = np.array(spec["guess"]["durations"])
@@ -330,15 +461,24 @@ class Transcription:
     """The NLP of a task with its orientation tolerances backed off by `backoff` rad, and
     IPOPT on it."""
 
-    def __init__(self, spec, k, backoff=0.0):
-        self.task = Task(spec, backoff)
+    def __init__(self, spec, k, backoff=0.0, torque_margin=TORQUE_MARGIN):
+        self.task = Task(spec, backoff, torque_margin)
         self.k = k
         nlp, self.x_bounds, self.g_bounds, self.g_count = transcribe(self.task, k)
         self.solver = ca.nlpsol("s", "ipopt", nlp, {
             "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 3000,
             "ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9, "ipopt.mu_strategy": "adaptive",
-            "expand": True, "ipopt.max_cpu_time": MAX_SECONDS,
+            "expand": self.task.rnea is None, "ipopt.max_cpu_time": MAX_SECONDS,
         })
+
+    def torques(self, x, accelerations):
+        """The torques at the grid points: tau = I a, or RNEA(q, v, a)."""
+        if self.task.rnea is None:
+            return accelerations * np.array(self.task.spec["inertia"])
+        m = self.task.n * self.g_count
+        qs, vs = (x[i * m:(i + 1) * m].reshape(self.g_count, self.task.n) for i in range(2))
+        return np.array([np.array(self.task.rnea(q, v, a)).ravel()
+                         for q, v, a in zip(qs, vs, accelerations)])
 
     def solve(self, x0):
         """IPOPT from x0: (converged, x, final time, grid times, q, v, a, worst, what)."""
@@ -365,12 +505,15 @@ def solve_task(spec, k=INTERVALS, first=False):
     With `first`, the starts are tried guess first and the first that passes is kept.
     """
     result = {"status": "no start", "final_time": None, "starts": [], "times": [], "torques": [],
-              "q0": spec.get("q0") or [], "backoff": 0.0}
-    if spec["rigid_body"] or spec["infeasible"] or not spec.get("q0"):
-        result["status"] = "not transcribed (rigid-body dynamics)" if spec["rigid_body"] else "skipped"
+              "q0": spec.get("q0") or [], "backoff": 0.0, "torque_margin": 0.0}
+    if spec["infeasible"] or not spec.get("q0"):
+        result["status"] = "skipped"
         return spec["name"], result
     plain = Transcription(spec, k)
-    inertia = np.array(spec["inertia"])
+    if plain.task.rnea is not None:
+        off = check_rnea(spec, plain.task.rnea)
+        if off is not None and off > 1e-8:
+            raise SystemExit(f"{spec['name']}: the RNEA differs from Pinocchio's by {off:.1e}")
     best = None
     tries = starts(spec, k)
     if first:
@@ -378,27 +521,39 @@ def solve_task(spec, k=INTERVALS, first=False):
     for name, (q, v, a, h) in tries:
         if first and best is not None:
             break
-        tr, backoff = plain, 0.0
+        tr, backoff, margin = plain, 0.0, TORQUE_MARGIN if spec["rigid_body"] else 0.0
         status, ok, x, final, times, as_, worst, what = tr.solve(
             np.concatenate([q.ravel(), v.ravel(), a.ravel(), h]))
         # IPOPT's iterations from this start, the backed-off re-solves included.
         iterations = tr.solver.stats()["iter_count"]
         for _ in range(BACKOFF_ROUNDS):
-            if not (ok and worst > TOLERANCE and what.startswith("orientation")):
+            if not (ok and worst > TOLERANCE):
                 break
-            backoff += 1.5 * worst
-            tr = Transcription(spec, k, backoff)
+            if what.startswith("orientation"):
+                backoff += 1.5 * worst
+            elif what.startswith("torque"):
+                # The excess as a fraction of the smallest limit: enough for every joint.
+                margin += 1.5 * worst / min(spec["tau_max"])
+            else:
+                break
+            tr = Transcription(spec, k, backoff, margin)
             status, ok, x, final, times, as_, worst, what = tr.solve(x)
             iterations += tr.solver.stats()["iter_count"]
         result["starts"].append(final if ok and worst <= TOLERANCE else None)
         print(f"  {spec['name']}: {name}: {status} T {final:.4f} worst {worst:.1e} ({what})"
-              f" backoff {backoff:.1e}, {iterations} IPOPT iterations", file=sys.stderr)
+              f" backoff {backoff:.1e} torque margin {margin:.1e},"
+              f" {iterations} IPOPT iterations", file=sys.stderr)
         if ok and worst <= TOLERANCE and (best is None or final < best[0]):
-            best = (final, status, times, as_ * inertia, backoff)
+            best = (final, status, times, tr.torques(x, as_), as_, backoff, margin)
     if best is not None:
+        rows = lambda t: [[float(f"{x:.12g}") for x in row] for row in t]
         result.update(status=best[1], final_time=best[0], times=[round(t, 12) for t in best[2]],
-                      torques=[[float(f"{x:.12g}") for x in row] for row in best[3]],
-                      backoff=best[4])
+                      torques=rows(best[3]), backoff=best[5], torque_margin=best[6])
+        if spec["rigid_body"]:
+            # The suite verifies a rigid-body reference on its own parametrization: the
+            # accelerations, first-order hold, integrated exactly, and the torques RNEA asks
+            # along the way.
+            result["accelerations"] = rows(best[4])
     else:
         result["status"] = "no start converged and verified"
     return spec["name"], result

@@ -2,8 +2,11 @@
 //! `bench/reference/t_ref.py` (CasADi + IPOPT, direct transcription on a fine grid), and its
 //! stored solutions read back and verified here, by [`crate::verify`], like armature's own.
 //!
-//! A reference counts for a task only when its trajectory (the torques at its grid times,
-//! first-order hold, from its start at rest) passes the same verification as armature's.
+//! A reference counts for a task only when its trajectory passes the same verification as
+//! armature's: the torques at its grid times, first-order hold, re-integrated from its start at
+//! rest; for the rigid-body tasks, whose reference is parametrized by its accelerations, those
+//! (first-order hold) integrated exactly and the torques that the suite's own rigid-body model
+//! asks along the way.
 
 use std::collections::BTreeMap;
 
@@ -37,6 +40,14 @@ pub struct ReferenceSolution {
     /// the trajectory holds them between its grid points too (0: not at all).
     #[serde(default)]
     pub backoff: f64,
+    /// Rigid-body tasks: the fraction of each torque limit the transcription kept in reserve
+    /// at its samples, so that the torque between them holds the limit too.
+    #[serde(default)]
+    pub torque_margin: f64,
+    /// Rigid-body tasks: the accelerations at the grid times (first-order hold between them),
+    /// the reference's own control; empty for the others.
+    #[serde(default)]
+    pub accelerations: Vec<Vec<f64>>,
 }
 
 /// The stored references by task name.
@@ -57,9 +68,16 @@ pub fn verify_reference(t: &SuiteTask, r: &ReferenceSolution) -> Worst {
     if r.times.len() < 2 || r.torques.len() != r.times.len() {
         return Worst { value: f64::INFINITY, what: "no trajectory".into() };
     }
-    let mut acc = run::accelerations(t);
-    let zeros = vec![0.0; r.q0.len()];
-    let dense = verify::reintegrate(acc.as_mut(), &r.times, &r.torques, &r.q0, &zeros);
+    let dense = if r.accelerations.is_empty() {
+        let mut acc = run::accelerations(t);
+        let zeros = vec![0.0; r.q0.len()];
+        verify::reintegrate(acc.as_mut(), &r.times, &r.torques, &r.q0, &zeros)
+    } else {
+        match acceleration_path(t, r) {
+            Ok(dense) => dense,
+            Err(what) => return Worst { value: f64::INFINITY, what },
+        }
+    };
     // The reference's grid is finer than the task's nodes; its waypoints and orientation
     // ranges fall on the grid times of the task's node instants.
     let node_times = reference_node_times(t, r);
@@ -75,6 +93,59 @@ pub fn verify_reference(t: &SuiteTask, r: &ReferenceSolution) -> Worst {
         return Worst { value: off, what: "start configuration".into() };
     }
     worst
+}
+
+/// A rigid-body reference's trajectory: its accelerations (first-order hold between its grid
+/// times) integrated exactly from its start at rest, sampled every [`verify::DT`] or finer,
+/// with the torques the task's rigid-body model (RNEA) needs for that motion at each sample.
+///
+/// # Errors
+/// A task without a rigid-body model, or accelerations that do not fit the grid.
+fn acceleration_path(t: &SuiteTask, r: &ReferenceSolution) -> Result<verify::Dense, String> {
+    let DynamicsModel::RigidBody { gravity } = &t.task.dynamics else {
+        return Err("accelerations stored for a task without rigid-body dynamics".into());
+    };
+    let n = r.q0.len();
+    let fits =
+        r.accelerations.len() == r.times.len() && r.accelerations.iter().all(|a| a.len() == n);
+    let model = armature_kinematics::RigidBodyModel::new(&t.task.chain, *gravity)
+        .map_err(|e| e.to_string())?;
+    if !fits || model.dof() != n {
+        return Err("accelerations that do not fit the grid".into());
+    }
+    let mut ws = model.workspace();
+    let (mut q, mut qd) = (r.q0.clone(), vec![0.0; n]);
+    let mut dense = verify::Dense::default();
+    let mut tau = vec![0.0; n];
+    for k in 0..r.times.len() - 1 {
+        let (t0, h) = (r.times[k], r.times[k + 1] - r.times[k]);
+        let (a0, a1) = (&r.accelerations[k], &r.accelerations[k + 1]);
+        let steps = (h / verify::DT).ceil().max(1.0) as usize;
+        // The last interval's end is sampled too.
+        let last = if k + 2 == r.times.len() { steps } else { steps - 1 };
+        for i in 0..=last {
+            let s = h * i as f64 / steps as f64;
+            // q″ = a linear over the interval: v quadratic, q cubic in s.
+            let (mut qs, mut vs, mut acc) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            for j in 0..n {
+                let jerk = (a1[j] - a0[j]) / h;
+                acc[j] = a0[j] + jerk * s;
+                vs[j] = qd[j] + a0[j] * s + jerk * s * s / 2.0;
+                qs[j] = q[j] + qd[j] * s + a0[j] * s * s / 2.0 + jerk * s.powi(3) / 6.0;
+            }
+            model.rnea(&mut ws, &qs, &vs, &acc, &mut tau).map_err(|e| e.to_string())?;
+            dense.t.push(t0 + s);
+            dense.q.push(qs);
+            dense.qd.push(vs);
+            dense.tau.push(tau.clone());
+        }
+        for j in 0..n {
+            let jerk = (a1[j] - a0[j]) / h;
+            q[j] += qd[j] * h + a0[j] * h * h / 2.0 + jerk * h.powi(3) / 6.0;
+            qd[j] += a0[j] * h + jerk * h * h / 2.0;
+        }
+    }
+    Ok(dense)
 }
 
 /// The instants of the task's nodes on the reference's grid: the grid is uniform within each
@@ -111,10 +182,19 @@ pub fn event_nodes(t: &SuiteTask) -> Vec<usize> {
 pub fn export(t: &SuiteTask, outcome: Option<&Outcome>) -> Value {
     let task = &t.task;
     let checks = run::checks(t);
-    let (inertia, rigid) = match &task.dynamics {
-        DynamicsModel::DecoupledInertia(i) => (i.clone(), false),
-        DynamicsModel::RigidBody { .. } => (Vec::new(), true),
+    let (inertia, gravity) = match &task.dynamics {
+        DynamicsModel::DecoupledInertia(i) => (i.clone(), None),
+        DynamicsModel::RigidBody { gravity } => (Vec::new(), Some(*gravity)),
     };
+    // The robot's mass properties (each joint's body, in the base frame at q = 0): task
+    // data the reference's own rigid-body dynamics reads.
+    let links: Vec<Value> = task
+        .chain
+        .joints()
+        .iter()
+        .filter_map(|j| j.inertial.as_ref())
+        .map(|i| json!({ "mass": i.mass, "com": i.com, "inertia": i.inertia }))
+        .collect();
     let plan = task.plan().ok();
     let guess = plan.as_ref().map(|p| json!({ "angles": p.ik.q, "durations": p.dilation_guess }));
     let solution = outcome
@@ -125,8 +205,10 @@ pub fn export(t: &SuiteTask, outcome: Option<&Outcome>) -> Value {
         "group": t.group,
         "robot": run::robot_name(t.robot),
         "infeasible": t.infeasible,
-        "rigid_body": rigid,
+        "rigid_body": gravity.is_some(),
         "inertia": inertia,
+        "gravity": gravity,
+        "links": if gravity.is_some() { links } else { Vec::new() },
         "q_lo": checks.q_lo,
         "q_hi": checks.q_hi,
         "qd_max": checks.qd_max,
