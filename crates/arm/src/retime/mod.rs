@@ -52,7 +52,9 @@ impl ArmTask {
     /// The solved trajectory `solution` of this task retimed: its path, re-integrated from
     /// its initial state under its torques, followed time-optimally within the task's
     /// velocity and torque limits (TOPP-RA: a backward pass of controllable speeds, a forward
-    /// pass of the largest path accelerations), from rest to rest.
+    /// pass of the largest path accelerations), from rest to rest. The limits hold at the
+    /// samples (about 2000); where the torque between two of them, as the motion there asks
+    /// it, would leave a limit, the grid is doubled (twice at most).
     ///
     /// A solve's final time is that of its control parametrization (first-order-hold
     /// torques on the task's nodes); along the same path the limits usually allow a faster
@@ -74,7 +76,7 @@ impl ArmTask {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn retime(&self, solution: &Solution) -> Result<Retimed, ArmError> {
-        self.retime_tables(&solution.nodes, path::POINTS)
+        self.retime_tables(&solution.nodes, path::POINTS, MIDPOINT_REFINEMENTS)
     }
 
     /// The final time of the trajectory whose node tables are `nodes` (`time`, `angle`,
@@ -91,14 +93,17 @@ impl ArmTask {
         nodes: &BTreeMap<String, Vec<Vec<f64>>>,
         points: usize,
     ) -> Result<f64, ArmError> {
-        self.retime_tables(nodes, points).map(|r| r.final_time)
+        self.retime_tables(nodes, points, 0).map(|r| r.final_time)
     }
 
-    /// [`retime`](Self::retime) of the node tables `nodes` on about `points` points.
+    /// [`retime`](Self::retime) of the node tables `nodes` on about `points` points, the grid
+    /// doubled up to `refinements` times while the torque between two samples leaves a limit
+    /// ([`midpoint_torque_excess`]).
     fn retime_tables(
         &self,
         nodes: &BTreeMap<String, Vec<Vec<f64>>>,
         points: usize,
+        refinements: usize,
     ) -> Result<Retimed, ArmError> {
         let n = self.chain.dof();
         let resolved = Resolved::new(&self.dynamics, &self.chain)?;
@@ -115,9 +120,30 @@ impl ArmTask {
             return Err(bad("retiming needs a trajectory from rest to rest".into()));
         }
         let mut model = Model::new(&resolved);
-        let path = path::sample(&mut model, &nodes, points);
+        let mut points = points;
+        for round in 0..=refinements {
+            let retimed = self.retime_on(&mut model, &nodes, points)?;
+            if round == refinements
+                || midpoint_torque_excess(&mut model, &retimed, &self.torque_limit) <= 0.0
+            {
+                return Ok(retimed);
+            }
+            points *= 2;
+        }
+        unreachable!("the last round returns")
+    }
+
+    /// The retiming of `nodes`' path on a grid of about `points` points.
+    fn retime_on(
+        &self,
+        model: &mut Model<'_>,
+        nodes: &NodeTables<'_>,
+        points: usize,
+    ) -> Result<Retimed, ArmError> {
+        let bad = |m: String| ArmError::new(TaskItem::Solution, m);
+        let path = path::sample(model, nodes, points);
         let delta: Vec<f64> = path.sigma.windows(2).map(|w| w[1] - w[0]).collect();
-        let coef = rows::torque_coefficients(&mut model, &path);
+        let coef = rows::torque_coefficients(model, &path);
         let finite = |t: &[Vec<f64>]| t.iter().flatten().all(|x| x.is_finite());
         if !(finite(&path.q) && finite(&path.dq) && finite(&path.ddq))
             || coef.iter().flatten().flatten().any(|x| !x.is_finite())
@@ -138,6 +164,33 @@ impl ArmTask {
         })?;
         Ok(samples(&path, &coef, &profile))
     }
+}
+
+/// How often [`ArmTask::retime`] doubles its grid at most when the torque between two samples
+/// leaves a limit: the rows hold it at the samples, and between them it follows the path's
+/// curvature, which on a fine mesh (a refined solve's 13 to 41 nodes) took an iiwa7 task
+/// 6e-3 N·m over a limit at 2000 points and not at 2400 (BENCHMARKS.md, 2026-12-07).
+const MIDPOINT_REFINEMENTS: usize = 2;
+
+/// The largest excess over its limit of a joint torque between two samples of `r`, as the
+/// motion there asks it: at each interval's midpoint, the mean of its ends' angles and
+/// velocities with the velocities' difference quotient as the acceleration (≤ 0: within).
+fn midpoint_torque_excess(model: &mut Model<'_>, r: &Retimed, limits: &[f64]) -> f64 {
+    let n = limits.len();
+    let (mut q, mut v, mut a, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut worst = f64::NEG_INFINITY;
+    for i in 0..r.time.len() - 1 {
+        let dt = r.time[i + 1] - r.time[i];
+        for j in 0..n {
+            q[j] = 0.5 * (r.angle[i][j] + r.angle[i + 1][j]);
+            v[j] = 0.5 * (r.velocity[i][j] + r.velocity[i + 1][j]);
+            a[j] = (r.velocity[i + 1][j] - r.velocity[i][j]) / dt;
+        }
+        model.torque(&q, &v, &a, &mut tau);
+        worst = tau.iter().zip(limits).map(|(t, l)| t.abs() - l).fold(worst, f64::max);
+    }
+    // A non-finite torque counts as an excess.
+    if worst.is_nan() { f64::INFINITY } else { worst }
 }
 
 /// The retimed samples of `path` under `profile`.
@@ -165,4 +218,31 @@ fn samples(
         out.torque.push(coef[i].iter().map(|[a, b, c]| a * u + b * x + c).collect());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_grid_whose_torque_leaves_a_limit_between_samples_is_refined() {
+        let seed = crate::fixtures::pick_and_place();
+        let solution = seed.plan().unwrap().compile().unwrap().solve().unwrap();
+        let resolved = Resolved::new(&seed.dynamics, &seed.chain).unwrap();
+        let excess =
+            |r: &Retimed| midpoint_torque_excess(&mut Model::new(&resolved), r, &seed.torque_limit);
+        // On 200 points the seed's torque passes a limit between two samples (by 8e-5 N·m):
+        // one doubling holds it.
+        let coarse = seed.retime_tables(&solution.nodes, 200, 0).unwrap();
+        assert!(excess(&coarse) > 0.0);
+        let refined = seed.retime_tables(&solution.nodes, 200, 3).unwrap();
+        assert!(excess(&refined) <= 0.0);
+        assert!(refined.time.len() > coarse.time.len());
+        assert!((refined.final_time - coarse.final_time).abs() < 1e-2 * coarse.final_time);
+        // A grid that holds it stays as it is.
+        let fine = seed.retime_tables(&solution.nodes, 400, 0).unwrap();
+        assert!(excess(&fine) <= 0.0);
+        assert_eq!(seed.retime_tables(&solution.nodes, 400, 3).unwrap(), fine);
+        assert!(excess(&seed.retime(&solution).unwrap()) <= 0.0);
+    }
 }

@@ -47,6 +47,23 @@ impl<'a> Model<'a> {
         Model { resolved, ws }
     }
 
+    /// `τ = M(q)q̈ + C(q, q̇)q̇ + g(q)` into `out` (NaN where the model fails).
+    pub(crate) fn torque(&mut self, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) {
+        match (self.resolved, self.ws.as_mut()) {
+            (Resolved::RigidBody(m), Some(ws)) => {
+                if m.rnea(ws, q, qd, qdd, out).is_err() {
+                    out.fill(f64::NAN);
+                }
+            }
+            (Resolved::Decoupled(inertia), _) => {
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = qdd[j] * inertia[j];
+                }
+            }
+            (Resolved::RigidBody(_), None) => out.fill(f64::NAN),
+        }
+    }
+
     /// `q̈ = f(q, q̇, τ)` into `out` (NaN where the model fails).
     fn qdd(&mut self, q: &[f64], qd: &[f64], tau: &[f64], out: &mut [f64]) {
         match (self.resolved, self.ws.as_mut()) {
