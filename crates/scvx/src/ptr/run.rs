@@ -49,17 +49,19 @@ impl Ptr {
     /// # Errors
     /// As [`solve`](Self::solve).
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
-        check_guess(self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes, (x, u, s))?;
+        check_trajectory(
+            self.ocp.dynamics.n_x(),
+            self.ocp.dynamics.n_u(),
+            self.ocp.nodes,
+            (x, u, s),
+        )?;
         let mut st = match self.state.take() {
             Some(st) => st,
             None => Box::new(self.iterate()),
         };
         st.timings = Timings::default();
-        let disc = self.set_reference(&mut st, x, u, s);
-        if let Err(e) = disc {
-            self.state = Some(st);
-            return Err(e);
-        }
+        // A guess whose discretization fails leaves no solve running (step: NotRunning).
+        self.set_reference(&mut st, x, u, s)?;
         st.lam_vc.fill(self.settings.lam_vc);
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
@@ -139,7 +141,12 @@ impl Ptr {
         u: &[f64],
         s: &[f64],
     ) -> Result<(), PtrError> {
-        check_guess(self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes, (x, u, s))?;
+        check_trajectory(
+            self.ocp.dynamics.n_x(),
+            self.ocp.dynamics.n_u(),
+            self.ocp.nodes,
+            (x, u, s),
+        )?;
         let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
         let out = if st.status.is_some() {
             Err(PtrError::NotRunning)
@@ -243,7 +250,7 @@ impl Ptr {
 
 /// Checks a trajectory `(x, u, s)` for a problem of `n` states, `m` controls and `nodes`
 /// nodes: sizes, finite values.
-fn check_guess(
+fn check_trajectory(
     n: usize,
     m: usize,
     nodes: usize,
