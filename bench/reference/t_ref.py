@@ -495,7 +495,7 @@ class Transcription:
         return status, ok, x, float(np.sum(hs)), times, as_, worst, what
 
 
-def solve_task(spec, k=INTERVALS, first=False):
+def solve_task(spec, k=INTERVALS, first=False, only=""):
     """Solves one task from each start; the best start that passes the dense check.
 
     A start that converges but breaks an orientation range between the grid points by more
@@ -515,7 +515,7 @@ def solve_task(spec, k=INTERVALS, first=False):
         if off is not None and off > 1e-8:
             raise SystemExit(f"{spec['name']}: the RNEA differs from Pinocchio's by {off:.1e}")
     best = None
-    tries = starts(spec, k)
+    tries = [t for t in starts(spec, k) if t[0].startswith(only)]
     if first:
         tries.reverse()
     for name, (q, v, a, h) in tries:
@@ -568,6 +568,10 @@ def main():
     ap.add_argument("--intervals", type=int, default=INTERVALS)
     ap.add_argument("--first", action="store_true",
                     help="keep the first start that passes (guess first) instead of the best")
+    ap.add_argument("--start", default="",
+                    help="only the starts whose name begins with this (armature, guess)")
+    ap.add_argument("--keep-best", action="store_true",
+                    help="keep a stored entry whose final time is lower than the new one's")
     args = ap.parse_args()
     words = args.filter.split(",")
     specs = [s for s in json.load(open(args.tasks)) if any(w in s["name"] for w in words)]
@@ -577,10 +581,11 @@ def main():
     results = {}
     with multiprocessing.Pool(args.jobs) as pool:
         for name, result in pool.imap_unordered(
-            solve_task_star, [(s, args.intervals, args.first) for s in specs], chunksize=1
+            solve_task_star, [(s, args.intervals, args.first, args.start) for s in specs],
+            chunksize=1,
         ):
             results[name] = result
-            save(args.out, {name: result})
+            save(args.out, {name: result}, args.keep_best)
     done = [r["final_time"] for r in results.values() if r["final_time"]]
     print(f"{len(done)} of {len(results)} tasks with a verified reference, {time.time() - t0:.0f} s",
           file=sys.stderr)
@@ -590,14 +595,25 @@ def solve_task_star(args):
     return solve_task(*args)
 
 
-def save(path, results):
-    """Merges results into the JSON at path, atomically (a temporary file renamed)."""
+def save(path, results, keep_best=False):
+    """Merges results into the JSON at path, atomically (a temporary file renamed); with
+    `keep_best`, a stored entry with a lower final time stays, the new starts' times added to
+    its list."""
     try:
         with open(path) as f:
             old = json.load(f)
     except (OSError, ValueError):
         old = {}
-    old.update(results)
+    for name, new in results.items():
+        stored = old.get(name)
+        if keep_best and stored and stored.get("final_time") and (
+            not new["final_time"] or stored["final_time"] <= new["final_time"]
+        ):
+            stored["starts"] = stored.get("starts", []) + new["starts"]
+        else:
+            if keep_best and stored:
+                new["starts"] = stored.get("starts", []) + new["starts"]
+            old[name] = new
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
         json.dump(old, f, indent=0, sort_keys=True)
