@@ -34,7 +34,7 @@ leaving it out can only lower T_ref, so the ratios T / T_ref stay conservative).
 Usage:
     cargo run --release -p armature-suite -- --export /tmp/tasks.json
     python3 bench/reference/t_ref.py /tmp/tasks.json bench/reference/t_ref.json [--jobs 2]
-        [--filter NAME] [--intervals 30] [--first]
+        [--filter NAME] [--intervals 30] [--first] [--start armature|guess] [--keep-best]
 
 Needs `pip install casadi numpy` (IPOPT is bundled with casadi); `pip install pin` for the
 rigid-body dynamics' check against Pinocchio.
