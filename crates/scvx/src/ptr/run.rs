@@ -49,12 +49,7 @@ impl Ptr {
     /// # Errors
     /// As [`solve`](Self::solve).
     pub fn start(&mut self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
-        check_trajectory(
-            self.ocp.dynamics.n_x(),
-            self.ocp.dynamics.n_u(),
-            self.ocp.nodes,
-            (x, u, s),
-        )?;
+        self.check_trajectory(x, u, s)?;
         let mut st = match self.state.take() {
             Some(st) => st,
             None => Box::new(self.iterate()),
@@ -141,12 +136,7 @@ impl Ptr {
         u: &[f64],
         s: &[f64],
     ) -> Result<(), PtrError> {
-        check_trajectory(
-            self.ocp.dynamics.n_x(),
-            self.ocp.dynamics.n_u(),
-            self.ocp.nodes,
-            (x, u, s),
-        )?;
+        self.check_trajectory(x, u, s)?;
         let mut st = self.state.take().ok_or(PtrError::NotRunning)?;
         let out = if st.status.is_some() {
             Err(PtrError::NotRunning)
@@ -157,9 +147,8 @@ impl Ptr {
             if let Some(native) = st.native.as_mut() {
                 native.restart();
             }
-            // The kept trajectory's final time (its merit follows, without the cost).
-            let prices = (&st.lam_vc[..], &st.lam_vb[..]);
-            (_, st.tf, _, _) = self.merit(x, u, s, &st.dbar, &mut st.ev, prices, GridAt::Reference);
+            // The kept trajectory's final time (its merit follows, without the cost, below).
+            st.tf = self.final_time(s);
         }
         self.state = Some(st);
         out?;
@@ -192,6 +181,20 @@ impl Ptr {
         st.linearized = false;
         st.ev.fgrid_reference = false;
         disc.map_err(Into::into)
+    }
+
+    /// Checks a trajectory `(x, u, s)` for this problem: sizes (N×n, N×m, N), finite values.
+    fn check_trajectory(&self, x: &[f64], u: &[f64], s: &[f64]) -> Result<(), PtrError> {
+        let (n, m, nodes) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u(), self.ocp.nodes);
+        for (what, v, len) in [("x", x, nodes * n), ("u", u, nodes * m), ("s", s, nodes)] {
+            if v.len() != len {
+                return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
+            }
+            if let Some(index) = v.iter().position(|v| !v.is_finite()) {
+                return Err(PtrError::GuessNotFinite { what, index });
+            }
+        }
+        Ok(())
     }
 
     /// Whether the running solve still minimizes its cost (see
@@ -246,23 +249,4 @@ impl Ptr {
             self.ocp.dynamics.output_with_grid(nn, self.settings.discretization.substeps)
         }
     }
-}
-
-/// Checks a trajectory `(x, u, s)` for a problem of `n` states, `m` controls and `nodes`
-/// nodes: sizes, finite values.
-fn check_trajectory(
-    n: usize,
-    m: usize,
-    nodes: usize,
-    (x, u, s): (&[f64], &[f64], &[f64]),
-) -> Result<(), PtrError> {
-    for (what, v, len) in [("x", x, nodes * n), ("u", u, nodes * m), ("s", s, nodes)] {
-        if v.len() != len {
-            return Err(PtrError::GuessSize { what, expected: len, got: v.len() });
-        }
-        if let Some(index) = v.iter().position(|v| !v.is_finite()) {
-            return Err(PtrError::GuessNotFinite { what, index });
-        }
-    }
-    Ok(())
 }
