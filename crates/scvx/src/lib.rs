@@ -26,9 +26,9 @@ pub use discretization::{
 pub use ipm::IpmSettings;
 pub use problem::{CompiledProblem, Monitor, Steer};
 pub use ptr::{
-    ClarabelSettings, Increment, IntervalConstraint, Merit, NodalConstraint, NodalKind, Ocp, Ptr,
-    PtrSettings, Sampling, SettingsError, SubproblemDimensions, SubproblemSettings,
-    SubproblemSolver, TrustRegionUpdate,
+    ClarabelSettings, CorrectionSolve, Increment, IntervalConstraint, Merit, NodalConstraint,
+    NodalKind, Ocp, Ptr, PtrSettings, Sampling, SettingsError, SubproblemDimensions,
+    SubproblemSettings, SubproblemSolver, TrustRegionUpdate,
 };
 
 // Results: statuses, records, violations, solutions and errors.

@@ -2,7 +2,7 @@
 //! (x_f, y_f) (y downward) fastest along a cycloid x = R(φ − sin φ), y = R(1 − cos φ), in
 //! T = φ_f·√(R/g), with φ_f solving (φ − sin φ)/(1 − cos φ) = x_f/y_f.
 
-use armature_scvx::{Dynamics, Merit, Ocp, Ptr, PtrSettings, PtrStatus};
+use armature_scvx::{CorrectionSolve, Dynamics, Merit, Ocp, Ptr, PtrSettings, PtrStatus};
 use armature_symbolic::Expr;
 
 const G: f64 = 9.81;
@@ -49,13 +49,20 @@ fn brachistochrone_matches_the_cycloid_with_the_exact_hessian() {
 
 /// The same with the second-order correction of the steps the exact Hessian's model
 /// predicts well but whose defects spoil the ratio (exact-penalty merit).
+/// Each way to the corrected step: a second solve, the step's factorization alone, and the
+/// factorization with a second solve where it fails (the default).
 #[test]
 fn brachistochrone_matches_the_cycloid_with_second_order_corrections() {
-    let corrected = check(|s| {
-        s.exact_hessian = true;
-        s.second_order_correction = true;
-    });
-    assert!(corrected > 0, "no step was corrected: the test would not test the correction");
+    for how in
+        [CorrectionSolve::Resolve, CorrectionSolve::Factorization, CorrectionSolve::default()]
+    {
+        let corrected = check(|s| {
+            s.exact_hessian = true;
+            s.second_order_correction = true;
+            s.correction_solve = how;
+        });
+        assert!(corrected > 0, "{how:?}: no step was corrected: the test would not test it");
+    }
 }
 
 /// Solves with the default settings (200 iterations at most) as `change` leaves them; how

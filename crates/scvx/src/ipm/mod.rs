@@ -70,6 +70,7 @@ use kkt::ReducedKkt;
 use scaling::{Scaling, push_inside, push_inside_socs, shift_into_cone, step_length};
 
 mod newton;
+mod sensitivity;
 mod start;
 
 use newton::*;
@@ -222,6 +223,8 @@ pub struct InteriorPoint {
     z: Vec<f64>,
     s: Vec<f64>,
     dx: Vec<f64>,
+    /// The last solution moved to another right-hand side (`moved_solution`).
+    x_moved: Vec<f64>,
     dz: Vec<f64>,
     ds: Vec<f64>,
     rx: Vec<f64>,
@@ -309,6 +312,7 @@ impl InteriorPoint {
             z: vec![0.0; m],
             s: vec![0.0; m],
             dx: vec![0.0; n],
+            x_moved: vec![0.0; n],
             dz: vec![0.0; m],
             ds: vec![0.0; m],
             rx: vec![0.0; n],

@@ -71,6 +71,13 @@ impl NativeBackend {
         }
     }
 
+    /// The last solution moved from right-hand side `b` to `b_new` (P, q and A as last
+    /// solved; see [`InteriorPoint::moved_solution`]), in the units of the last solve.
+    pub(super) fn moved_solution(&mut self, p: &[f64], b: &[f64], b_new: &[f64]) -> Option<&[f64]> {
+        let p = if self.scale_objective { &self.p_scaled[..] } else { p };
+        self.ipm.moved_solution(p, b, b_new)
+    }
+
     /// A new run: cold, and with the objective as given.
     pub(super) fn restart(&mut self) {
         self.ipm.reset();

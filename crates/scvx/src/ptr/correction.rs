@@ -78,12 +78,39 @@ impl Ptr {
         sc.b.iter().all(|b| b.is_finite())
     }
 
+    /// The corrected step by a solve of the corrected subproblem into `st.soc.step` (the
+    /// subproblem's status in `record` stays the step's).
+    fn solve_corrected(&self, st: &mut Iterate, set: &PtrSettings, record: &mut Iteration) -> bool {
+        std::mem::swap(&mut st.b, &mut st.soc.b);
+        std::mem::swap(&mut st.sol_x, &mut st.soc.step);
+        let status = record.subproblem_status;
+        let solved = self.solve_subproblem(st, &set.subproblem, record).is_ok();
+        record.subproblem_status = status;
+        std::mem::swap(&mut st.sol_x, &mut st.soc.step);
+        std::mem::swap(&mut st.b, &mut st.soc.b);
+        solved
+    }
+
+    /// The corrected step as the step's solution moved to the corrected right-hand sides on
+    /// the native interior point's last factorization, into `st.soc.step` (false without a
+    /// native solution to move).
+    fn moved_step(st: &mut Iterate) -> bool {
+        let Some(native) = st.native.as_mut() else { return false };
+        match native.moved_solution(&st.pvals, &st.b, &st.soc.b) {
+            Some(x) => {
+                st.soc.step.copy_from_slice(x);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Tries the second-order correction of the step `z` whose candidate (in `st.zc`,
-    /// `st.dcand`, `st.ev`) reached the ratio `rho` against `predicted`: solves the corrected
-    /// subproblem and evaluates its candidate. When that candidate's ratio beats `rho` and
-    /// `least`, it stays in `st.zc`/`st.dcand` (the step in `st.soc.step`) and its merit
-    /// values, ratio and `‖Δz′‖²_S` are returned; otherwise the original candidate is
-    /// restored.
+    /// `st.dcand`, `st.ev`) reached the ratio `rho` against `predicted`, its corrected step
+    /// computed as [`PtrSettings::correction_solve`] says. When a corrected candidate's ratio
+    /// beats `rho` and `least`, it stays in `st.zc`/`st.dcand` (the step in `st.soc.step`)
+    /// and its merit values, ratio and `‖Δz′‖²_S` are returned; otherwise the original
+    /// candidate is restored.
     pub(super) fn correct(
         &mut self,
         st: &mut Iterate,
@@ -92,23 +119,45 @@ impl Ptr {
         (phibar, predicted, rho, least): (f64, f64, f64, f64),
         record: &mut Iteration,
     ) -> Result<Option<(MeritValues, f64, f64)>, PtrError> {
-        let vp0 = self.layout().2;
         if !self.corrected_rhs(st, z) {
             return Ok(None);
         }
         st.soc.zc.copy_from_slice(&st.zc);
-        std::mem::swap(&mut st.b, &mut st.soc.b);
-        std::mem::swap(&mut st.sol_x, &mut st.soc.step);
-        let (status, t) = (record.subproblem_status, Instant::now());
-        let solved = self.solve_subproblem(st, &set.subproblem, record).is_ok();
-        record.subproblem_status = status;
-        record.subproblem_ms += t.elapsed().as_secs_f64() * 1e3;
-        st.timings.subproblem_ms += t.elapsed().as_secs_f64() * 1e3;
-        std::mem::swap(&mut st.sol_x, &mut st.soc.step);
-        std::mem::swap(&mut st.b, &mut st.soc.b);
-        if !solved {
-            return Ok(None);
+        let beats = |r: f64| r > rho && r >= least;
+        let mode = set.correction_solve;
+        if mode != CorrectionSolve::Resolve {
+            if timed(st, record, |st, _| Self::moved_step(st)) {
+                let c = self.corrected_candidate(st, set, (phibar, predicted), record)?;
+                if beats(c.1) {
+                    return Ok(Some(c));
+                }
+            }
+            // The plain step stands, or (no resolve) is rejected without a correction.
+            if mode == CorrectionSolve::Factorization || rho >= least {
+                self.restore_candidate(st, record)?;
+                return Ok(None);
+            }
         }
+        if timed(st, record, |st, record| self.solve_corrected(st, set, record)) {
+            let c = self.corrected_candidate(st, set, (phibar, predicted), record)?;
+            if beats(c.1) {
+                return Ok(Some(c));
+            }
+        }
+        self.restore_candidate(st, record)?;
+        Ok(None)
+    }
+
+    /// The candidate of the corrected step in `st.soc.step`, evaluated into `st.zc`,
+    /// `st.dcand` and `st.ev`: its merit values, ratio and `‖Δz′‖²_S`.
+    fn corrected_candidate(
+        &mut self,
+        st: &mut Iterate,
+        set: &PtrSettings,
+        (phibar, predicted): (f64, f64),
+        record: &mut Iteration,
+    ) -> Result<(MeritValues, f64, f64), PtrError> {
+        let vp0 = self.layout().2;
         let step = &st.soc.step;
         for i in 0..vp0 {
             st.zc[i] = st.zbar[i] + step[i];
@@ -119,16 +168,34 @@ impl Ptr {
         record.discretization_ms += ms;
         st.timings.discretization_ms += ms;
         let phi = m.0 + merit_shift(set.merit, &st.dcand.defect, &st.duals, &st.lam_vc);
-        let r = (phibar - phi) / predicted;
-        if r > rho && r >= least {
-            return Ok(Some((m, r, j_tr)));
-        }
-        // The original candidate again, with its evaluation (the caller may still take it).
+        Ok((m, (phibar - phi) / predicted, j_tr))
+    }
+
+    /// The original candidate again, with its evaluation (the caller may still take it).
+    fn restore_candidate(
+        &mut self,
+        st: &mut Iterate,
+        record: &mut Iteration,
+    ) -> Result<(), PtrError> {
         st.zc.copy_from_slice(&st.soc.zc);
         let prices = (&st.lam_vc[..], &st.lam_vb[..]);
         let (_, ms) = self.evaluate(&st.zc, &mut st.dcand, &mut st.ev, prices)?;
         record.discretization_ms += ms;
         st.timings.discretization_ms += ms;
-        Ok(None)
+        Ok(())
     }
+}
+
+/// Runs `f` (a way to the corrected step) with its time added to the subproblem's.
+fn timed(
+    st: &mut Iterate,
+    record: &mut Iteration,
+    f: impl FnOnce(&mut Iterate, &mut Iteration) -> bool,
+) -> bool {
+    let t = Instant::now();
+    let ok = f(st, record);
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    record.subproblem_ms += ms;
+    st.timings.subproblem_ms += ms;
+    ok
 }

@@ -112,11 +112,45 @@ pub struct PtrSettings {
     /// subproblem with each nonlinear row's constant moved by the error the step left in it
     /// (`b′ = h(z̄ + Δz) + A·Δz`) — and take the corrected candidate if its ratio against
     /// the same prediction is higher. Second-order defects then no longer spoil the ratio of
-    /// a good step (the Maratos effect). Costs one more subproblem (warm-started) and one
-    /// more discretization where tried. Default true.
+    /// a good step (the Maratos effect). Costs one more discretization where tried, and a
+    /// Newton solve or one more subproblem ([`correction_solve`](Self::correction_solve)).
+    /// Default true.
     pub second_order_correction: bool,
+    /// How the second-order correction's step is computed. Default
+    /// [`CorrectionSolve::FactorizationThenResolve`].
+    pub correction_solve: CorrectionSolve,
     /// The merit function that accepts or rejects steps. Default [`Merit::ExactPenalty`].
     pub merit: Merit,
+}
+
+/// How the second-order correction's step is computed ([`PtrSettings::second_order_correction`]).
+/// As data: `"resolve"`, `"factorization"` or `"factorization_then_resolve"`.
+///
+/// The corrected subproblem differs from the step's only in its right-hand sides, by the
+/// second-order error the step left. An interior-point SQP (IPOPT) computes such a
+/// correction on the step's own KKT factorization; a second interior-point solve finds the
+/// corrected subproblem's exact solution, with the rows that the correction makes active,
+/// at the cost of a whole subproblem (about 12 interior-point iterations on the suite's
+/// arms, as many as the step's own solve).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CorrectionSolve {
+    /// The corrected subproblem solved again (the native interior point warm-started from
+    /// the step's duals).
+    Resolve,
+    /// The step's solution moved to the corrected right-hand sides by one Newton solve on
+    /// the native interior point's last factorization
+    /// ([`InteriorPoint::moved_solution`](crate::ipm::InteriorPoint::moved_solution)): the
+    /// exact correction while the active set holds, and no correction when the step came
+    /// from Clarabel.
+    Factorization,
+    /// [`Factorization`](Self::Factorization) first; when its candidate does not beat the
+    /// step and the step would be rejected (ρ < η₀), [`Resolve`](Self::Resolve) as well.
+    /// On the benchmark suite it keeps the iterations and trajectories of `Resolve` (the
+    /// same medians) at about 80 % of its solve time (`BENCHMARKS.md`, 2026-12-07). The
+    /// default.
+    #[default]
+    FactorizationThenResolve,
 }
 
 /// Merit function of the step acceptance (with [`TrustRegionUpdate::Adaptive`]). As data:
@@ -412,6 +446,7 @@ impl Default for PtrSettings {
             quasi_newton: false,
             exact_hessian: true,
             second_order_correction: true,
+            correction_solve: CorrectionSolve::default(),
             merit: Merit::ExactPenalty,
         }
     }
