@@ -90,11 +90,11 @@
 //! with its right-hand sides shifted by the linear model's error at the candidate,
 //! `b′ = h(z̄ + Δz) + A·Δz`, and the corrected candidate is kept when its ratio is better —
 //! the classical remedy when curved constraints (a 0.1° orientation range) make a good
-//! step look bad to the merit. Only b changes, so by default the corrected step is first the
-//! step's solution moved to `b′` on the interior point's last factorization (one Newton
+//! step look bad to the merit. Only b changes, so by default the corrected step is first
+//! the step's solution moved to `b′` on the interior point's last factorization (one Newton
 //! solve, [`crate::ipm::InteriorPoint::moved_solution`]); the corrected subproblem is solved
-//! again only when that fails and the step would be rejected ([`CorrectionSolve`]). What each of these does, measured on the suite, is in
-//! BENCHMARKS.md.
+//! again only when that fails and the step would be rejected ([`CorrectionSolve`]). What
+//! each of these does, measured on the suite, is in BENCHMARKS.md.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{

@@ -123,8 +123,8 @@ pub struct PtrSettings {
     pub merit: Merit,
 }
 
-/// How the second-order correction's step is computed ([`PtrSettings::second_order_correction`]).
-/// As data: `"resolve"`, `"factorization"` or `"factorization_then_resolve"`.
+/// How the second-order correction's step is computed
+/// ([`PtrSettings::second_order_correction`]). As data: `"resolve"`, `"factorization"` or `"factorization_then_resolve"`.
 ///
 /// The corrected subproblem differs from the step's only in its right-hand sides, by the
 /// second-order error the step left. An interior-point SQP (IPOPT) computes such a
@@ -140,15 +140,15 @@ pub enum CorrectionSolve {
     Resolve,
     /// The step's solution moved to the corrected right-hand sides by one Newton solve on
     /// the native interior point's last factorization
-    /// ([`InteriorPoint::moved_solution`](crate::ipm::InteriorPoint::moved_solution)): the
-    /// exact correction while the active set holds, and no correction when the step came
-    /// from Clarabel.
+    /// ([`InteriorPoint::moved_solution`](crate::ipm::InteriorPoint::moved_solution)):
+    /// the corrected subproblem's solution to second order while its active set is the
+    /// step's (approximately where a second-order cone is active); no correction when the
+    /// step came from Clarabel.
     Factorization,
     /// [`Factorization`](Self::Factorization) first; when its candidate does not beat the
     /// step and the step would be rejected (ρ < η₀), [`Resolve`](Self::Resolve) as well.
-    /// On the benchmark suite it keeps the iterations and trajectories of `Resolve` (the
-    /// same medians) at about 80 % of its solve time (`BENCHMARKS.md`, 2026-12-07). The
-    /// default.
+    /// On the benchmark suite it keeps the medians of `Resolve`'s iterations and final
+    /// times at about 80 % of its solve time (`BENCHMARKS.md`, 2026-12-07). The default.
     #[default]
     FactorizationThenResolve,
 }
