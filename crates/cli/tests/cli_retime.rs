@@ -177,8 +177,12 @@ fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
     let svg = svg.unwrap();
     assert!(svg.contains(&format!("from {} only feasibility", first + 1)), "{svg}");
     assert!(marks(&full).iter().all(|&m| !m));
-    // Measured: 20 iterations against 32, retimed 0.8058 s against 0.8013 s.
-    assert!(marked.len() < marks(&full).len(), "{} against {}", marked.len(), marks(&full).len());
+    // It stopped minimizing before the full solve ended. Whether that saves iterations in
+    // all depends on how long the restoration takes: over the benchmark suite 26 against 36
+    // at the median; on this task (measured) 31 against 30, retimed 0.8032 s both (the last
+    // default's correction: 20 against 32).
+    let full_len = marks(&full).len();
+    assert!(first < full_len, "minimizing until {first}, the full solve {full_len}");
     let retimed = |r: &Value| r["retimed"]["final_time"].as_f64().unwrap();
     assert!(
         retimed(&stalled) < 1.02 * retimed(&full),

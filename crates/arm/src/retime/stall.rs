@@ -49,10 +49,12 @@ use crate::ArmTask;
 /// let (first, again) = (compiled.solve()?, compiled.solve()?);
 /// assert_eq!(first.iterations, solution.iterations);
 /// assert_eq!(again.iterations, solution.iterations);
-/// // Minimizing to the end takes longer, to a retimed time within 1 % of it.
+/// // It stopped minimizing before a solve minimizing to the end stops, within 1 % of its
+/// // retimed time.
+/// let minimizing = solution.history.iter().take_while(|it| !it.feasibility).count();
 /// ur5e.retime_stall = None;
 /// let full = ur5e.plan()?.compile()?.solve()?;
-/// assert!(full.iterations > solution.iterations);
+/// assert!(minimizing < full.iterations);
 /// assert!(retimed.final_time < 1.01 * ur5e.retime(&full)?.final_time);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

@@ -65,6 +65,10 @@ impl Ptr {
         if let Some(native) = st.native.as_mut() {
             native.restart();
         }
+        // Nor solve with the last one's Clarabel: updated in place, it does not reproduce a
+        // new solver's result to the last bit, and a fallback to it then made a second solve
+        // of the same problem walk elsewhere (the UR5e rigid-body task: 31 and 30 iterations).
+        st.clarabel = None;
         // Nor from its multipliers (the exact curvature and the Lagrangian merit read them).
         st.duals.fill(0.0);
         st.history.clear();
