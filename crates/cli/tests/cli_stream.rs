@@ -277,14 +277,22 @@ fn the_progress_stream_marks_the_iterations_that_only_restored_feasibility() {
     let (listener, _rest) = listen(&["listen", &run, "--timeout", "120"]);
     let dir = scratch("stream-feasible");
     let result = dir.path().join("result.json");
-    let (code, _, stderr) =
-        armature(&["demo", "-q", "--stream", &run, "-o", result.to_str().unwrap()]);
+    let (code, _, stderr) = armature(&[
+        "demo",
+        "pick-and-place-collision",
+        "-q",
+        "--stream",
+        &run,
+        "-o",
+        result.to_str().unwrap(),
+    ]);
     let out = listener.wait_with_output().unwrap();
     assert!(out.status.success());
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
     assert_solved(code, &r, &stderr);
-    // The demo stops minimizing once its retimed path stalls: its last iteration only
-    // restored feasibility, and the listener says so instead of a cost of 0.
+    // The collision demo stops minimizing once its retimed path stalls (the seed's demo
+    // converges before its path stalls): its last iterations only restored feasibility, and
+    // the listener says so instead of a cost of 0.
     let history = r["history"].as_array().unwrap();
     assert_eq!(history.last().unwrap()["feasibility"], true);
     let stdout = String::from_utf8(out.stdout).unwrap();
