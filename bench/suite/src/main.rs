@@ -1,5 +1,5 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
-//! [--reference FILE] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
+//! [--reference FILE] [--per-segment K] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
 //! [--velocity-peaks true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
 //! [--no-retime]`: solves every task of the suite with default settings — each solve
 //! stopping its minimization once its path retimed stalls and retiming its verified solution
@@ -13,7 +13,9 @@
 //! reports the solve's own timing (and minimizes it to the end); `--no-retime-stall` retimes
 //! a solve that minimized to the end.
 //!
-//! For studies of a candidate default, on every task alike: `--subdivide K` splits every
+//! For studies of a candidate default, on every task alike: `--per-segment K` restates every
+//! task with K intervals between consecutive waypoints instead of 2, the integration's step
+//! length kept (`ArmTask::resegmented`); `--subdivide K` splits every
 //! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
 //! task and then again on a grid K times finer from that solution (`ArmTask::refined`,
 //! `armature_arm::set_refined_guess`; iterations and time count both stages), `--starts K`
@@ -39,6 +41,7 @@ fn main() {
         value("--settings"),
         value("--velocity-peaks"),
     )
+    .and_then(|s| s.with_per_segment(value("--per-segment")))
     .and_then(|s| {
         let on = !args.iter().any(|a| a == "--no-retime" || a == "--no-retime-stall");
         s.with_retime_stall(on, value("--retime-stall"))

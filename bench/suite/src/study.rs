@@ -8,6 +8,9 @@ use crate::generate::SuiteTask;
 /// What a study changes in every task.
 #[derive(Debug, Clone, Default)]
 pub struct Study {
+    /// Every task restated with this many intervals between consecutive waypoints, the
+    /// integration's step length kept (`ArmTask::resegmented`; `None`: as generated, 2).
+    pub per_segment: Option<usize>,
     /// Every segment split into this many (1: the task as generated).
     pub subdivide: usize,
     /// Fields of `PtrSettings` to override, as a JSON object.
@@ -61,7 +64,15 @@ impl Study {
             Some("false") => Some(false),
             Some(v) => return Err(format!("--velocity-peaks {v}: need true or false")),
         };
-        Ok(Study { subdivide, settings, velocity_peaks, refine, starts, retime_stall: None })
+        Ok(Study {
+            per_segment: None,
+            subdivide,
+            settings,
+            velocity_peaks,
+            refine,
+            starts,
+            retime_stall: None,
+        })
     }
 
     /// Every task's `ArmTask::retime_stall` when `on` (as the CLI's default for a retimed
@@ -88,12 +99,31 @@ impl Study {
         Ok(self)
     }
 
+    /// With the command line's `--per-segment K` (none: the tasks as generated).
+    ///
+    /// # Errors
+    /// A count that is not a whole number from 1 to 16.
+    pub fn with_per_segment(mut self, k: Option<&String>) -> Result<Self, String> {
+        self.per_segment = match k {
+            None => None,
+            Some(k) => match k.parse::<usize>() {
+                Ok(k @ 1..=16) => Some(k),
+                _ => return Err(format!("--per-segment {k}: need a whole number from 1 to 16")),
+            },
+        };
+        Ok(self)
+    }
+
     /// The task with the study's changes.
     ///
     /// # Errors
     /// Settings that `PtrSettings` does not accept (an unknown key, a wrong type, or values
-    /// its validation refuses), naming the task.
+    /// its validation refuses), or a task that cannot be restated per segment, naming the
+    /// task.
     pub fn apply(&self, mut t: SuiteTask) -> Result<SuiteTask, String> {
+        if let Some(k) = self.per_segment {
+            t.task = t.task.resegmented(k).map_err(|e| format!("{}: {e}", t.name))?;
+        }
         if self.subdivide > 1 {
             t.task = t.task.subdivided(self.subdivide);
         }
@@ -177,6 +207,22 @@ mod tests {
         for bad in [r#"{"window": 0}"#, r#"{"no_such_key": 1}"#, "[1]"] {
             let e = plain().with_retime_stall(true, Some(&bad.into())).err().unwrap();
             assert!(e.contains("--retime-stall"), "{e}");
+        }
+    }
+
+    #[test]
+    fn every_task_can_be_restated_per_segment_and_bad_counts_are_refused() {
+        let plain = || Study::from_args((None, None, None), None, None).unwrap();
+        let three = plain().with_per_segment(Some(&"3".into())).unwrap();
+        for task in crate::generate::suite().into_iter().filter(|t| !t.task.waypoints.is_empty()) {
+            let t = three.apply(task.clone()).unwrap_or_else(|e| panic!("{e}"));
+            let segments = task.task.waypoints.len() - 1;
+            assert_eq!(t.task.nodes, 3 * segments + 1, "{}", task.name);
+        }
+        assert_eq!(plain().with_per_segment(None).unwrap().per_segment, None);
+        for bad in ["0", "17", "two"] {
+            let e = plain().with_per_segment(Some(&bad.into())).err().unwrap();
+            assert!(e.contains("--per-segment"), "{e}");
         }
     }
 }

@@ -12,6 +12,7 @@ mod multi_start;
 mod node_tables;
 mod plan;
 mod refine;
+mod resegment;
 mod retime;
 mod task;
 
