@@ -71,7 +71,7 @@ impl ArmTask {
         let nodes: Vec<usize> = self.waypoints.iter().map(|w| w.node).collect();
         let p = *nodes.get(1)?;
         let even = p > 0 && nodes.iter().enumerate().all(|(i, &k)| k == i * p);
-        (even && nodes.last() == Some(&(self.nodes - 1))).then_some(p)
+        (even && nodes.last().copied() == self.nodes.checked_sub(1)).then_some(p)
     }
 }
 
@@ -120,6 +120,9 @@ mod tests {
         let mut short = seed.clone();
         short.nodes += 2;
         assert_eq!(short.resegmented(3).unwrap_err().item, crate::TaskItem::Nodes);
+        let mut none = seed.clone();
+        none.nodes = 0;
+        assert_eq!(none.resegmented(3).unwrap_err().item, crate::TaskItem::Nodes);
         let mut off = seed.clone();
         off.orientation[0].first = 1;
         assert_eq!(off.resegmented(3).unwrap_err().item, crate::TaskItem::Orientation(0));
