@@ -40,13 +40,7 @@ impl Study {
         settings: Option<&String>,
         velocity_peaks: Option<&String>,
     ) -> Result<Self, String> {
-        let factor = |flag: &str, k: Option<&String>| match k {
-            None => Ok(1),
-            Some(k) => match k.parse::<usize>() {
-                Ok(k @ 1..=16) => Ok(k),
-                _ => Err(format!("{flag} {k}: need a whole number from 1 to 16")),
-            },
-        };
+        let factor = |flag: &str, k| count(flag, k).map(|k| k.unwrap_or(1));
         let subdivide = factor("--subdivide", subdivide)?;
         let refine = factor("--refine", refine)?;
         let starts = factor("--starts", starts)?;
@@ -104,13 +98,7 @@ impl Study {
     /// # Errors
     /// A count that is not a whole number from 1 to 16.
     pub fn with_per_segment(mut self, k: Option<&String>) -> Result<Self, String> {
-        self.per_segment = match k {
-            None => None,
-            Some(k) => match k.parse::<usize>() {
-                Ok(k @ 1..=16) => Some(k),
-                _ => return Err(format!("--per-segment {k}: need a whole number from 1 to 16")),
-            },
-        };
+        self.per_segment = count("--per-segment", k)?;
         Ok(self)
     }
 
@@ -141,6 +129,15 @@ impl Study {
             t.task.settings.validate().map_err(|e| format!("{}: settings: {e}", t.name))?;
         }
         Ok(t)
+    }
+}
+
+/// A flag's count: a whole number from 1 to 16, or `None` without the flag.
+fn count(flag: &str, k: Option<&String>) -> Result<Option<usize>, String> {
+    match k.map(|k| (k, k.parse::<usize>())) {
+        None => Ok(None),
+        Some((_, Ok(k @ 1..=16))) => Ok(Some(k)),
+        Some((k, _)) => Err(format!("{flag} {k}: need a whole number from 1 to 16")),
     }
 }
 

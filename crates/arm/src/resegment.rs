@@ -68,10 +68,10 @@ impl ArmTask {
     /// The common spacing of the waypoints' nodes, from node 0 to the last node (`None`
     /// when they are not evenly spaced or do not span the nodes).
     fn waypoint_spacing(&self) -> Option<usize> {
-        let nodes: Vec<usize> = self.waypoints.iter().map(|w| w.node).collect();
-        let p = *nodes.get(1)?;
-        let even = p > 0 && nodes.iter().enumerate().all(|(i, &k)| k == i * p);
-        (even && nodes.last().copied() == self.nodes.checked_sub(1)).then_some(p)
+        let p = self.waypoints.get(1)?.node;
+        let even = p > 0 && self.waypoints.iter().enumerate().all(|(i, w)| w.node == i * p);
+        let last = self.waypoints.last().map(|w| w.node);
+        (even && last == self.nodes.checked_sub(1)).then_some(p)
     }
 }
 
