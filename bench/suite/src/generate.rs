@@ -101,13 +101,15 @@ fn arm7_task(rng: &mut Pcg64Mcg, ball: bool) -> Option<(ArmTask, Balls)> {
     let pick = Vector3::new(lerp(rng, 0.30, 0.50), lerp(rng, -0.35, -0.10), lerp(rng, 0.03, 0.08));
     let place = Vector3::new(lerp(rng, 0.30, 0.50), lerp(rng, 0.10, 0.35), lerp(rng, 0.03, 0.08));
     let lift = Vector3::new(0.0, 0.0, lerp(rng, 0.10, 0.20));
+    // The fixture's nodes per segment (its orientation ranges sit on them).
+    let p = task.dynamics.default_per_segment();
     task.waypoints = vec![
         wp("home", 0, Vector3::new(0.69, 0.0, 0.34), Some([1.0, 0.0, 0.0, 0.0])),
-        wp("pre_grasp", 2, pick + lift, down),
-        wp("grasp", 4, pick, down),
-        wp("lift", 6, pick + lift, down),
-        wp("pre_place", 8, place + lift, down),
-        wp("place", 10, place, down),
+        wp("pre_grasp", p, pick + lift, down),
+        wp("grasp", 2 * p, pick, down),
+        wp("lift", 3 * p, pick + lift, down),
+        wp("pre_place", 4 * p, place + lift, down),
+        wp("place", 5 * p, place, down),
     ];
     let qs = reachable(&task, Robot::Arm7, 0.05f64.to_radians())?;
     if !ball {
@@ -132,18 +134,20 @@ fn ur5e_task(rng: &mut Pcg64Mcg, base: &ArmTask) -> Option<ArmTask> {
     let place = Vector3::new(lerp(rng, -0.55, -0.35), lerp(rng, 0.15, 0.40), lerp(rng, 0.05, 0.12));
     let lift = Vector3::new(0.0, 0.0, lerp(rng, 0.10, 0.20));
     let home = Vector3::from(base.waypoints[0].position);
+    // The base's nodes per segment.
+    let p = base.waypoints[1].node;
     task.waypoints = vec![
         wp("home", 0, home, down),
-        wp("pick", 2, pick, down),
-        wp("lift", 4, pick + lift, down),
-        wp("place", 6, place, down),
+        wp("pick", p, pick, down),
+        wp("lift", 2 * p, pick + lift, down),
+        wp("place", 3 * p, place, down),
     ];
     task.orientation = vec![OrientationRange {
         name: "pick..place".into(),
         quaternion_wxyz: fixtures::UR5E_DOWN,
         tolerance_deg: 5.0,
-        first: 2,
-        last: 6,
+        first: p,
+        last: 3 * p,
     }];
     reachable(&task, Robot::Ur5e, 1.0f64.to_radians()).map(|_| task)
 }
@@ -189,8 +193,8 @@ fn iiwa_task(rng: &mut Pcg64Mcg) -> Option<ArmTask> {
     };
     (task.velocity_limit, task.torque_limit) = (limit(&|l| l.velocity), limit(&|l| l.effort));
     task.dynamics = DynamicsModel::DecoupledInertia(vec![1.0, 1.0, 0.6, 0.6, 0.3, 0.1, 0.05]);
-    task.settings = task.dynamics.default_settings();
     task.velocity_limit_peaks = task.dynamics.default_velocity_limit_peaks();
+    task.time_scaled_torque = task.dynamics.default_time_scaled_torque();
     task.start = None;
     let down = Some(IIWA_DOWN);
     let pick = Vector3::new(lerp(rng, 0.45, 0.65), lerp(rng, -0.35, -0.15), lerp(rng, 0.05, 0.12));
@@ -203,6 +207,9 @@ fn iiwa_task(rng: &mut Pcg64Mcg) -> Option<ArmTask> {
         wp("place", 6, place, down),
     ];
     task.orientation[0].quaternion_wxyz = IIWA_DOWN;
+    // The model's nodes per segment and integration steps.
+    let mut task = task.resegmented(task.dynamics.default_per_segment()).expect("even waypoints");
+    task.settings = task.dynamics.default_settings();
     reachable(&task, Robot::Iiwa7, 1.0f64.to_radians()).map(|_| task)
 }
 
@@ -243,8 +250,10 @@ pub fn suite() -> Vec<SuiteTask> {
     urdf.chain = armature_kinematics::chain_from_urdf_str(xml, "base_link", "tool0", None)
         .expect("the fixture URDF loads");
     urdf.dynamics = DynamicsModel::DecoupledInertia(vec![2.0, 2.0, 1.0, 0.1, 0.1, 0.05]);
+    let mut urdf = urdf.resegmented(urdf.dynamics.default_per_segment()).expect("even waypoints");
     urdf.settings = urdf.dynamics.default_settings();
     urdf.velocity_limit_peaks = urdf.dynamics.default_velocity_limit_peaks();
+    urdf.time_scaled_torque = urdf.dynamics.default_time_scaled_torque();
     for (group, base) in [("ur5e-urdf", &urdf), ("ur5e-rigid-body", &rigid)] {
         let mut made = 0;
         while made < 20 {

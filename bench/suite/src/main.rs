@@ -1,6 +1,6 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--per-segment K] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
-//! [--velocity-peaks true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
+//! [--velocity-peaks true|false] [--time-scaled true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
 //! [--no-retime]`: solves every task of the suite with default settings — each solve
 //! stopping its minimization once its path retimed stalls and retiming its verified solution
 //! along that path, as the CLI does by default (`ArmTask::retime_stall`, `ArmTask::retime`,
@@ -14,16 +14,18 @@
 //! a solve that minimized to the end.
 //!
 //! For studies of a candidate default, on every task alike: `--per-segment K` restates every
-//! task with K intervals between consecutive waypoints instead of 2, the integration's step
-//! length kept (`ArmTask::resegmented`); `--subdivide K` splits every
-//! segment into K (K·2 intervals between waypoints instead of 2), `--refine K` solves each
+//! task with K intervals between consecutive waypoints instead of its model's default (3
+//! for the decoupled model, 2 for the rigid-body one), the integration's step length kept (`ArmTask::resegmented`); `--subdivide K` splits every
+//! segment into K, `--refine K` solves each
 //! task and then again on a grid K times finer from that solution (`ArmTask::refined`,
 //! `armature_arm::set_refined_guess`; iterations and time count both stages), `--starts K`
 //! solves each task's first stage from K timings of its guess in parallel and keeps the best
 //! (`ArmPlan::solve_multi_start`; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
-//! points or not (each task's dynamics model chooses by default); `--retime-stall JSON`
+//! points or not (each task's dynamics model chooses by default); `--time-scaled
+//! true|false` solves every task for its time-scaled torques or its torques
+//! (`ArmTask::time_scaled_torque`; the model chooses by default); `--retime-stall JSON`
 //! changes the rule by which minimization stops once the path retimed stalls (the default
 //! `RetimeStall` with the object's fields).
 
@@ -42,6 +44,7 @@ fn main() {
         value("--velocity-peaks"),
     )
     .and_then(|s| s.with_per_segment(value("--per-segment")))
+    .and_then(|s| s.with_time_scaled(value("--time-scaled")))
     .and_then(|s| {
         let on = !args.iter().any(|a| a == "--no-retime" || a == "--no-retime-stall");
         s.with_retime_stall(on, value("--retime-stall"))

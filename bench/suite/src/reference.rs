@@ -71,7 +71,7 @@ pub fn verify_reference(t: &SuiteTask, r: &ReferenceSolution) -> Worst {
     let dense = if r.accelerations.is_empty() {
         let mut acc = run::accelerations(t);
         let zeros = vec![0.0; r.q0.len()];
-        verify::reintegrate(acc.as_mut(), &r.times, &r.torques, &r.q0, &zeros)
+        verify::reintegrate(acc.as_mut(), &r.times, (&r.torques, None), &r.q0, &zeros)
     } else {
         match acceleration_path(t, r) {
             Ok(dense) => dense,

@@ -17,6 +17,7 @@ pub fn verify_retimed(t: &SuiteTask, r: &Retimed) -> Worst {
         q: r.angle.clone(),
         qd: r.velocity.clone(),
         tau: r.torque.clone(),
+        segment_starts: Vec::new(),
     };
     let c = checks(t);
     let mut worst = verify::check(&c, &dense, &r.node_times);

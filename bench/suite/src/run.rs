@@ -153,7 +153,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     let dense = verify::reintegrate(
         acc.as_mut(),
         &times,
-        &nodes["torque"],
+        (&nodes["torque"], solution.control_ends.get("torque").map(Vec::as_slice)),
         &nodes["angle"][0],
         &nodes["velocity"][0],
     );

@@ -9,7 +9,8 @@ use crate::generate::SuiteTask;
 #[derive(Debug, Clone, Default)]
 pub struct Study {
     /// Every task restated with this many intervals between consecutive waypoints, the
-    /// integration's step length kept (`ArmTask::resegmented`; `None`: as generated, 2).
+    /// integration's step length kept (`ArmTask::resegmented`; `None`: as generated, the
+    /// dynamics model's default, 3 or 2).
     pub per_segment: Option<usize>,
     /// Every segment split into this many (1: the task as generated).
     pub subdivide: usize,
@@ -18,6 +19,9 @@ pub struct Study {
     /// Every task's velocity limits bounded at the integration grid's points or not
     /// (`ArmTask::velocity_limit_peaks`; `None`: each task's own default).
     pub velocity_peaks: Option<bool>,
+    /// Every task's torques time-scaled or not (`ArmTask::time_scaled_torque`; `None`: each
+    /// task's own default).
+    pub time_scaled: Option<bool>,
     /// Mesh refinement: every task solved, then solved again on a grid this many times
     /// finer from that solution (1: once).
     pub refine: usize,
@@ -52,17 +56,13 @@ impl Study {
                 Err(e) => return Err(format!("--settings {s}: {e}")),
             },
         };
-        let velocity_peaks = match velocity_peaks.map(String::as_str) {
-            None => None,
-            Some("true") => Some(true),
-            Some("false") => Some(false),
-            Some(v) => return Err(format!("--velocity-peaks {v}: need true or false")),
-        };
+        let velocity_peaks = switch("--velocity-peaks", velocity_peaks)?;
         Ok(Study {
             per_segment: None,
             subdivide,
             settings,
             velocity_peaks,
+            time_scaled: None,
             refine,
             starts,
             retime_stall: None,
@@ -93,6 +93,15 @@ impl Study {
         Ok(self)
     }
 
+    /// With the command line's `--time-scaled true|false` (none: each task's default).
+    ///
+    /// # Errors
+    /// A value that is neither `true` nor `false`.
+    pub fn with_time_scaled(mut self, on: Option<&String>) -> Result<Self, String> {
+        self.time_scaled = switch("--time-scaled", on)?;
+        Ok(self)
+    }
+
     /// With the command line's `--per-segment K` (none: the tasks as generated).
     ///
     /// # Errors
@@ -120,6 +129,9 @@ impl Study {
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
         }
+        if let Some(on) = self.time_scaled {
+            t.task.time_scaled_torque = on;
+        }
         t.task.retime_stall = self.retime_stall;
         if let Some(patch) = &self.settings {
             let mut current = serde_json::to_value(&t.task.settings).map_err(|e| e.to_string())?;
@@ -129,6 +141,16 @@ impl Study {
             t.task.settings.validate().map_err(|e| format!("{}: settings: {e}", t.name))?;
         }
         Ok(t)
+    }
+}
+
+/// A `true|false` flag's value (`None` when not given).
+fn switch(flag: &str, value: Option<&String>) -> Result<Option<bool>, String> {
+    match value.map(String::as_str) {
+        None => Ok(None),
+        Some("true") => Ok(Some(true)),
+        Some("false") => Ok(Some(false)),
+        Some(v) => Err(format!("{flag} {v}: need true or false")),
     }
 }
 

@@ -214,16 +214,20 @@ pub struct Dense {
     pub q: Vec<Vec<f64>>,
     /// Velocities per sample.
     pub qd: Vec<Vec<f64>>,
-    /// Torques per sample.
+    /// Torques per sample (at a node: where the segment before it ends).
     pub tau: Vec<Vec<f64>>,
+    /// The torques where each segment starts (they jump at a node where a time-scaled
+    /// solution's segments change duration).
+    pub segment_starts: Vec<Vec<f64>>,
 }
 
 /// Re-integrates from `(q0, q̇0)` under the torques at the node times, held first-order
-/// between them, with RK4 steps of at most [`DT`].
+/// between them (segment k from `torques[k]` to `ends[k]`, or to `torques[k + 1]` without
+/// `ends`), with RK4 steps of at most [`DT`].
 pub fn reintegrate(
     dyn_: &mut dyn Accelerations,
     times: &[f64],
-    torques: &[Vec<f64>],
+    (torques, ends): (&[Vec<f64>], Option<&[Vec<f64>]>),
     q0: &[f64],
     qd0: &[f64],
 ) -> Dense {
@@ -244,8 +248,10 @@ pub fn reintegrate(
         let dt = h / steps as f64;
         let tau_at = |s: f64| -> Vec<f64> {
             let w = ((s - t0) / h).clamp(0.0, 1.0);
-            torques[k].iter().zip(&torques[k + 1]).map(|(a, b)| (1.0 - w) * a + w * b).collect()
+            let end = ends.map_or(&torques[k + 1], |e| &e[k]);
+            torques[k].iter().zip(end).map(|(a, b)| (1.0 - w) * a + w * b).collect()
         };
+        out.segment_starts.push(torques[k].clone());
         for i in 0..steps {
             let s = t0 + i as f64 * dt;
             let mut deriv = |q: &[f64], qd: &[f64], s: f64| -> (Vec<f64>, Vec<f64>) {
@@ -318,6 +324,12 @@ pub fn check(c: &Checks, dense: &Dense, node_times: &[f64]) -> Worst {
         }
     };
     let node_at = |t: f64| node_times.iter().rposition(|&s| s <= t + 1e-12).unwrap_or(0);
+    for (k, tau) in dense.segment_starts.iter().enumerate() {
+        let t = node_times.get(k).copied().unwrap_or(f64::NAN);
+        for j in 0..tau.len() {
+            note(tau[j].abs() - c.tau_max[j], &|| format!("joint {j} torque at t = {t:.3}"));
+        }
+    }
     for (s, &t) in dense.t.iter().enumerate() {
         let (q, qd, tau) = (&dense.q[s], &dense.qd[s], &dense.tau[s]);
         for j in 0..q.len() {

@@ -32,7 +32,8 @@ fn reintegration_matches_constant_acceleration() {
     // q̈ = τ / I with τ ramping linearly from 0 to 2 over 1 s and I = 2: q̈ = t, q̇ = t² / 2,
     // q = t³ / 6 (RK4 is exact on these polynomials).
     let mut d = verify::Decoupled(vec![2.0]);
-    let dense = verify::reintegrate(&mut d, &[0.0, 1.0], &[vec![0.0], vec![2.0]], &[0.0], &[0.0]);
+    let dense =
+        verify::reintegrate(&mut d, &[0.0, 1.0], (&[vec![0.0], vec![2.0]], None), &[0.0], &[0.0]);
     let last = dense.t.len() - 1;
     assert!((dense.t[last] - 1.0).abs() < 1e-12);
     assert!((dense.qd[last][0] - 0.5).abs() < 1e-12, "{}", dense.qd[last][0]);
@@ -135,6 +136,7 @@ fn self_collision_is_checked_on_the_tasks_own_link_pairs() {
         q: vec![q],
         qd: vec![vec![0.0; 7]],
         tau: vec![vec![0.0; 7]],
+        segment_starts: Vec::new(),
     };
     let ok = verify::check(&checks, &still(vec![0.0, 0.3, 0.0, -1.2, 0.0, 0.9, 0.0]), &[0.0]);
     assert!(!ok.what.starts_with("capsules"), "{ok:?}");

@@ -27,6 +27,7 @@ pub(crate) fn main() {
         velocity_limit: vec![std::f64::consts::PI; 6],
         torque_limit: vec![150.0, 150.0, 150.0, 28.0, 28.0, 28.0],
         velocity_limit_peaks: true,
+        time_scaled_torque: true,
         angle_limit_peaks: false,
         start: Some(vec![0.0, -H, H, -H, -H, 0.0]),
         time: TimeWindow { min: 0.0, max: 6.0, minimize: true },

@@ -8,7 +8,6 @@ use std::f64::consts::FRAC_1_SQRT_2;
 
 use armature_collision::{LinkSpec, ObstacleSpec, Scene, SphereSpec};
 use armature_kinematics::robots;
-use armature_scvx::PtrSettings;
 
 use crate::{
     ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RetimeStall, TimeWindow,
@@ -50,8 +49,11 @@ fn range(from: (&str, usize), to: (&str, usize), q: [f64; 4], deg: f64) -> Orien
 /// The seed tutorial's 7-DOF pick-and-place (`examples/pick-and-place.toml`): home →
 /// pre_grasp → grasp → lift → pre_place → place within 1 cm, gripper down within 5° from
 /// pre_grasp to place and 0.1° around the grasp and the place, above the table, `q̈ = τ / I`,
-/// free final time ≤ 4 s, 2 nodes per segment.
+/// free final time ≤ 4 s, the model's default 3 node intervals between waypoints
+/// ([`DynamicsModel::default_per_segment`]; the tutorial has 2) and time-scaled torques.
 pub fn pick_and_place() -> ArmTask {
+    let dynamics = DynamicsModel::DecoupledInertia(vec![0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]);
+    let p = dynamics.default_per_segment();
     let d = Some(ARM7_DOWN);
     let waypoints = waypoints(
         &[
@@ -62,29 +64,30 @@ pub fn pick_and_place() -> ArmTask {
             ("pre_place", [0.35, 0.25, 0.2], d),
             ("place", [0.35, 0.25, 0.05], d),
         ],
-        2,
+        p,
     );
     let orientation = vec![
-        range(("pre_grasp", 2), ("place", 10), ARM7_DOWN, 5.0),
-        range(("pre_grasp", 2), ("lift", 6), ARM7_DOWN, 0.1),
-        range(("pre_place", 8), ("place", 10), ARM7_DOWN, 0.1),
+        range(("pre_grasp", p), ("place", 5 * p), ARM7_DOWN, 5.0),
+        range(("pre_grasp", p), ("lift", 3 * p), ARM7_DOWN, 0.1),
+        range(("pre_place", 4 * p), ("place", 5 * p), ARM7_DOWN, 0.1),
     ];
     ArmTask {
         chain: robots::arm7(),
-        dynamics: DynamicsModel::DecoupledInertia(vec![0.08, 0.06, 0.05, 0.04, 0.02, 0.01, 0.005]),
+        settings: dynamics.default_settings(),
+        dynamics,
         velocity_limit: vec![3.0; 7],
         torque_limit: vec![8.0, 8.0, 4.0, 4.0, 2.0, 1.0, 0.5],
         velocity_limit_peaks: true,
+        time_scaled_torque: true,
         angle_limit_peaks: false,
         start: None,
         time: TimeWindow { min: 0.0, max: 4.0, minimize: true },
-        nodes: 11,
+        nodes: 5 * p + 1,
         waypoints,
         orientation,
         table_height: Some(0.0),
         collision: None,
         initialization: Initialization::default(),
-        settings: PtrSettings::default(),
         retime_stall: Some(RetimeStall::default()),
     }
 }
@@ -143,6 +146,8 @@ pub fn ur5e_rigid_body() -> ArmTask {
     };
     let (velocity_limit, torque_limit) = (limit(&|l| l.velocity), limit(&|l| l.effort));
     let d = Some(UR5E_DOWN);
+    let dynamics = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] };
+    let p = dynamics.default_per_segment();
     let waypoints = waypoints(
         &[
             ("home", [-0.4919, -0.1333, 0.4879], d),
@@ -150,9 +155,8 @@ pub fn ur5e_rigid_body() -> ArmTask {
             ("lift", [-0.45, -0.3, 0.25], d),
             ("place", [-0.45, 0.3, 0.1], d),
         ],
-        2,
+        p,
     );
-    let dynamics = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] };
     ArmTask {
         chain,
         settings: dynamics.default_settings(),
@@ -161,12 +165,13 @@ pub fn ur5e_rigid_body() -> ArmTask {
         velocity_limit,
         torque_limit,
         velocity_limit_peaks: false,
+        time_scaled_torque: false,
         angle_limit_peaks: false,
         start: Some(vec![0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2, -FRAC_PI_2, 0.0]),
         time: TimeWindow { min: 0.0, max: 6.0, minimize: true },
-        nodes: 7,
+        nodes: 3 * p + 1,
         waypoints,
-        orientation: vec![range(("pick", 2), ("place", 6), UR5E_DOWN, 5.0)],
+        orientation: vec![range(("pick", p), ("place", 3 * p), UR5E_DOWN, 5.0)],
         table_height: Some(0.0),
         collision: None,
         initialization: Initialization::default(),

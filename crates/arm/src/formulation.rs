@@ -42,6 +42,7 @@ pub(crate) fn states_and_dynamics(task: &ArmTask, dynamics: &Resolved, guess: &G
                 .flat_map(|t| t.iter().zip(torque_limit).map(|(t, l)| t.clamp(-l, *l)))
                 .collect(),
         );
+    let torque = if task.time_scaled_torque { torque.with_time_scaling() } else { torque };
     let qdd_expr = dynamics.acceleration(&angle.expr(), &velocity.expr(), &torque.expr());
     Problem {
         dynamics: vec![velocity.expr(), qdd_expr],

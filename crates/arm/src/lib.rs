@@ -25,6 +25,6 @@ pub use plan::{ArmPlan, set_retime_stall, waypoint_parameter};
 pub use refine::{join_stages, set_refined_guess};
 pub use retime::{RetimeStall, Retimed};
 pub use task::{
-    ArmTask, Clearance, DynamicsModel, Initialization, OrientationRange, RIGID_BODY_SUBSTEPS,
-    TimeWindow, Waypoint,
+    ArmTask, Clearance, DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT, DynamicsModel, Initialization,
+    OrientationRange, RIGID_BODY_SUBSTEPS, TimeWindow, Waypoint,
 };

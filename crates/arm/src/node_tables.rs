@@ -12,13 +12,21 @@ pub(crate) struct NodeTables<'a> {
     pub(crate) q: &'a Table,
     pub(crate) v: &'a Table,
     pub(crate) u: &'a Table,
+    /// The torques where each segment ends (N − 1 rows): the next node's, or a solution's
+    /// `control_ends` (time-scaled torques jump at the nodes).
+    pub(crate) u_end: Table,
 }
 
 impl<'a> NodeTables<'a> {
     /// The `time`, `angle`, `velocity` and `torque` tables of `tables` (a solution's or an
     /// iterate's node tables), checked for shape (`n` joints, two nodes or more, increasing
-    /// finite times, finite values).
-    pub(crate) fn new(tables: &'a BTreeMap<String, Table>, n: usize) -> Result<Self, String> {
+    /// finite times, finite values), with the torques where each segment ends from `ends`
+    /// (a solution's `control_ends`; `None`: each next node's).
+    pub(crate) fn new(
+        tables: &'a BTreeMap<String, Table>,
+        ends: Option<&BTreeMap<String, Table>>,
+        n: usize,
+    ) -> Result<Self, String> {
         let table = |t: &'a BTreeMap<String, Table>, name: &str| {
             t.get(name).ok_or_else(|| format!("the solution has no \"{name}\" node table"))
         };
@@ -38,7 +46,21 @@ impl<'a> NodeTables<'a> {
         if !(finite(q) && finite(v) && finite(u)) {
             return Err("the solution's node tables hold a non-finite value".into());
         }
-        Ok(NodeTables { times, q, v, u })
+        let u_end = match ends.and_then(|e| e.get("torque")) {
+            Some(e) if e.len() + 1 == times.len() && e.iter().all(|r| r.len() == n) => {
+                if !finite(e) {
+                    return Err("the solution's segment-end torques hold a non-finite value".into());
+                }
+                e.clone()
+            }
+            Some(_) => {
+                return Err(format!(
+                    "the solution's segment-end torques do not fit {n} joints and its nodes"
+                ));
+            }
+            None => u[1..].to_vec(),
+        };
+        Ok(NodeTables { times, q, v, u, u_end })
     }
 
     /// Whether the first and last nodes are at rest (velocities within 1e-6 rad/s).

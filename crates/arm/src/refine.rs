@@ -56,7 +56,7 @@ pub fn set_refined_guess(
             torque.extend_from_slice(&c.u[node]);
         } else {
             c.dense_at(c.times[k] + w * (c.times[k + 1] - c.times[k]), &mut angle, &mut velocity);
-            torque.extend(c.u[k].iter().zip(&c.u[k + 1]).map(|(a, b)| (1.0 - w) * a + w * b));
+            torque.extend(c.u[k].iter().zip(&c.u_end[k]).map(|(a, b)| (1.0 - w) * a + w * b));
         }
         dilation.push((nf - 1) as f64 * (c.times[k + 1] - c.times[k]) / factor as f64);
     }
@@ -76,6 +76,8 @@ struct Coarse<'a> {
     q: &'a Table,
     v: &'a Table,
     u: &'a Table,
+    /// The torques where each segment ends.
+    u_end: Table,
     dense_t: Vec<f64>,
     dq: &'a Table,
     dv: &'a Table,
@@ -88,13 +90,14 @@ impl<'a> Coarse<'a> {
         };
         let column = |t: &Table| t.iter().filter_map(|r| r.first().copied()).collect::<Vec<_>>();
         let width = s.nodes.get("angle").and_then(|t| t.first()).map_or(0, Vec::len);
-        let nodes = NodeTables::new(&s.nodes, width).map_err(bad)?;
+        let nodes = NodeTables::new(&s.nodes, Some(&s.control_ends), width).map_err(bad)?;
         let dense = &s.trajectory;
         let c = Coarse {
             times: nodes.times,
             q: nodes.q,
             v: nodes.v,
             u: nodes.u,
+            u_end: nodes.u_end,
             dense_t: column(table(dense, "time")?),
             dq: table(dense, "angle")?,
             dv: table(dense, "velocity")?,

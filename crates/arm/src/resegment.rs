@@ -23,10 +23,11 @@ impl ArmTask {
     /// # Example
     /// ```
     /// let seed = armature_arm::fixtures::pick_and_place();
-    /// assert_eq!((seed.nodes, seed.waypoints[1].node), (11, 2));
-    /// let three = seed.resegmented(3).unwrap();
-    /// assert_eq!((three.nodes, three.waypoints[1].node), (16, 3));
-    /// assert_eq!(three.settings.discretization.substeps, 7); // ⌈10·2/3⌉
+    /// assert_eq!((seed.nodes, seed.waypoints[1].node), (16, 3));
+    /// assert_eq!(seed.settings.discretization.substeps, 7);
+    /// let two = seed.resegmented(2).unwrap();
+    /// assert_eq!((two.nodes, two.waypoints[1].node), (11, 2));
+    /// assert_eq!(two.settings.discretization.substeps, 11); // ⌈7·3/2⌉
     /// assert!(seed.resegmented(0).is_err());
     /// ```
     pub fn resegmented(&self, per_segment: usize) -> Result<ArmTask, ArmError> {
@@ -82,6 +83,7 @@ mod tests {
     #[test]
     fn instants_are_kept_and_the_grid_keeps_its_step() {
         let seed = fixtures::pick_and_place();
+        let (p, steps) = (seed.waypoints[1].node, seed.settings.discretization.substeps);
         for m in 1..=5 {
             let t = seed.resegmented(m).unwrap();
             assert_eq!(t.nodes, 5 * m + 1);
@@ -90,15 +92,15 @@ mod tests {
                 assert_eq!(a.node * (t.nodes - 1), b.node * (seed.nodes - 1));
             }
             for (a, b) in seed.orientation.iter().zip(&t.orientation) {
-                assert_eq!((a.first * m, a.last * m), (b.first * 2, b.last * 2));
+                assert_eq!((a.first * m, a.last * m), (b.first * p, b.last * p));
             }
-            let steps = t.settings.discretization.substeps;
-            assert_eq!(steps, (20usize).div_ceil(m), "{m} per segment");
-            // Back to two per segment: the task itself.
-            let back = t.resegmented(2).unwrap();
+            let got = t.settings.discretization.substeps;
+            assert_eq!(got, (steps * p).div_ceil(m), "{m} per segment");
+            // Back to the seed's own count: the task itself.
+            let back = t.resegmented(p).unwrap();
             assert_eq!((back.nodes, back.waypoints[3].node), (seed.nodes, seed.waypoints[3].node));
         }
-        assert_eq!(seed.resegmented(4).unwrap().nodes, seed.subdivided(2).nodes);
+        assert_eq!(seed.resegmented(2 * p).unwrap().nodes, seed.subdivided(2).nodes);
     }
 
     #[test]

@@ -27,9 +27,14 @@ pub enum DynamicsModel {
 /// (BENCHMARKS.md).
 pub const RIGID_BODY_SUBSTEPS: usize = 30;
 
+/// RK4 steps per waypoint segment for [`DynamicsModel::DecoupledInertia`] by default, shared
+/// by its nodes ([`DynamicsModel::default_substeps`]): the integration grid on which the
+/// velocity rows and the clearances are held between the nodes.
+pub const DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT: usize = 20;
+
 impl DynamicsModel {
     /// The solver settings a task with this model starts from: the defaults, with
-    /// [`RIGID_BODY_SUBSTEPS`] integration steps per segment for the rigid-body model.
+    /// [`default_substeps`](Self::default_substeps) at the model's nodes per waypoint segment.
     ///
     /// # Example
     /// ```
@@ -37,13 +42,57 @@ impl DynamicsModel {
     ///
     /// let rigid = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_settings();
     /// assert_eq!(rigid.discretization.substeps, RIGID_BODY_SUBSTEPS);
+    /// let decoupled = DynamicsModel::DecoupledInertia(vec![1.0]).default_settings();
+    /// assert_eq!(decoupled.discretization.substeps, 7);
     /// ```
     pub fn default_settings(&self) -> PtrSettings {
         let mut settings = PtrSettings::default();
-        if let DynamicsModel::RigidBody { .. } = self {
-            settings.discretization.substeps = RIGID_BODY_SUBSTEPS;
-        }
+        settings.discretization.substeps = self.default_substeps(self.default_per_segment());
         settings
+    }
+
+    /// The node intervals between two consecutive waypoints by default: 3 for the decoupled
+    /// model, 2 for the rigid-body one. With time-scaled torques the decoupled tasks of the
+    /// benchmark suite end at a median 1.022 × T_ref with 3 (1.087 with 2) in about as many
+    /// iterations; the rigid-body tasks gain nothing from a third piece without velocity rows
+    /// at every grid point, and take twice as long (BENCHMARKS.md, 2026-12-07,
+    /// "time-scaled torques").
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::DynamicsModel;
+    ///
+    /// assert_eq!(DynamicsModel::DecoupledInertia(vec![1.0]).default_per_segment(), 3);
+    /// assert_eq!(DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_per_segment(), 2);
+    /// ```
+    pub fn default_per_segment(&self) -> usize {
+        match self {
+            DynamicsModel::DecoupledInertia(_) => 3,
+            DynamicsModel::RigidBody { .. } => 2,
+        }
+    }
+
+    /// RK4 steps per node interval by default for `per_segment` intervals between two
+    /// waypoints: [`DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT`] shared by them for the decoupled
+    /// model (10 with 2 intervals, 7 with 3), [`RIGID_BODY_SUBSTEPS`] per interval for the
+    /// rigid-body model, whose accuracy needs the short step.
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::{DynamicsModel, RIGID_BODY_SUBSTEPS};
+    ///
+    /// let decoupled = DynamicsModel::DecoupledInertia(vec![1.0]);
+    /// assert_eq!((decoupled.default_substeps(2), decoupled.default_substeps(3)), (10, 7));
+    /// let rigid = DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] };
+    /// assert_eq!(rigid.default_substeps(3), RIGID_BODY_SUBSTEPS);
+    /// ```
+    pub fn default_substeps(&self, per_segment: usize) -> usize {
+        match self {
+            DynamicsModel::DecoupledInertia(_) => {
+                DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT.div_ceil(per_segment.max(1)).max(1)
+            }
+            DynamicsModel::RigidBody { .. } => RIGID_BODY_SUBSTEPS,
+        }
     }
 
     /// Whether a task with this model bounds its velocities at every integration grid
@@ -60,6 +109,23 @@ impl DynamicsModel {
     /// assert!(!DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_velocity_limit_peaks());
     /// ```
     pub fn default_velocity_limit_peaks(&self) -> bool {
+        matches!(self, DynamicsModel::DecoupledInertia(_))
+    }
+
+    /// Whether a task with this model time-scales its torques by default
+    /// ([`ArmTask::time_scaled_torque`]): yes for the decoupled model, whose accelerations
+    /// are then linear in the solver's variables; no for the rigid-body model, whose solves
+    /// then ride the velocity limits between the nodes more closely than the integration
+    /// holds them (BENCHMARKS.md, 2026-12-07, "time-scaled torques").
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::DynamicsModel;
+    ///
+    /// assert!(DynamicsModel::DecoupledInertia(vec![1.0]).default_time_scaled_torque());
+    /// assert!(!DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_time_scaled_torque());
+    /// ```
+    pub fn default_time_scaled_torque(&self) -> bool {
         matches!(self, DynamicsModel::DecoupledInertia(_))
     }
 }
@@ -167,6 +233,14 @@ pub struct ArmTask {
     /// integral holds them on the tasks' own grids; [`refined`](Self::refined) turns the rows
     /// on, as shorter segments loosen the integral.
     pub angle_limit_peaks: bool,
+    /// Solve for the time-scaled torques `w = s·τ` (the torque times its segment's
+    /// dilation, [`Control::time_scaled`](armature_scvx::Control#structfield.time_scaled)):
+    /// with `q̈ = τ / I` the velocities' dynamics are then linear in the solver's variables,
+    /// so a step that shortens a segment and changes its torques is predicted exactly
+    /// there, and the walk takes longer steps. The torque is then linear on each segment and
+    /// jumps at a node where the segments' durations differ (the solution's `control_ends`).
+    /// Default: the model's ([`DynamicsModel::default_time_scaled_torque`]).
+    pub time_scaled_torque: bool,
     /// The joint angles at the start (default: IK of the first waypoint).
     pub start: Option<Vec<f64>>,
     /// The final time.

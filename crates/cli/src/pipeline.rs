@@ -76,7 +76,7 @@ pub fn arm_task(
     let (velocity_limit, torque_limit) = joint_limits(task, &chain, src)?;
     let dynamics = dynamics_model(task, src)?;
     let (t_min, t_max) = time_window(task, src)?;
-    let (nodes, per_segment) = node_count(task, src)?;
+    let (nodes, per_segment) = node_count(task, dynamics.default_per_segment(), src)?;
     let mut waypoints = planned_waypoints(task, nodes, per_segment, src)?;
     for (w, q) in waypoints.iter_mut().zip(guess_orientations(task, src)?) {
         w.orientation = q;
@@ -91,16 +91,20 @@ pub fn arm_task(
     let collision = collision(task, &chain, src)?;
     let mut settings = crate::settings::checked(&task.settings, src)?;
     if !crate::settings::has_key(src.text, &["settings", "discretization", "substeps"]) {
-        settings.discretization.substeps = dynamics.default_settings().discretization.substeps;
+        let per = per_segment.unwrap_or_else(|| dynamics.default_per_segment());
+        settings.discretization.substeps = dynamics.default_substeps(per);
     }
     let velocity_limit_peaks =
         robot.velocity_limit_peaks.unwrap_or_else(|| dynamics.default_velocity_limit_peaks());
+    let time_scaled_torque =
+        robot.time_scaled_torque.unwrap_or_else(|| dynamics.default_time_scaled_torque());
     let arm_task = ArmTask {
         chain,
         dynamics,
         velocity_limit,
         torque_limit,
         velocity_limit_peaks,
+        time_scaled_torque,
         // Angles are held by the limits' integral on the task's own grid (a refined stage,
         // `ArmTask::refined`, adds their rows).
         angle_limit_peaks: false,
@@ -360,7 +364,7 @@ fn retime_stall(task: &TaskFile, src: Source<'_>) -> Result<Option<RetimeStall>,
 /// A factor below 1 or above 16, or a refined grid beyond the node limit.
 pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedError> {
     let Some(r) = &task.nodes.refine else { return Ok(1) };
-    let (nodes, _) = node_count(task, src)?;
+    let (nodes, _) = node_count(task, dynamics_model(task, src)?.default_per_segment(), src)?;
     let k = *r.get_ref();
     let max = armature_scvx::MAX_NODES;
     if !(1..=16).contains(&k) || (nodes - 1) * k + 1 > max {
@@ -373,7 +377,11 @@ pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedErro
 }
 
 /// `[nodes]`: the node count, and the nodes per segment when given that way.
-fn node_count(task: &TaskFile, src: Source<'_>) -> Result<(usize, Option<usize>), LocatedError> {
+fn node_count(
+    task: &TaskFile,
+    default_per_segment: usize,
+    src: Source<'_>,
+) -> Result<(usize, Option<usize>), LocatedError> {
     let w = &task.waypoints;
     if w.len() < 2 {
         return Err(
@@ -389,7 +397,7 @@ fn node_count(task: &TaskFile, src: Source<'_>) -> Result<(usize, Option<usize>)
             (*c.get_ref(), None)
         }
         (None, per) => {
-            let p = per.as_ref().map_or(2, |p| *p.get_ref());
+            let p = per.as_ref().map_or(default_per_segment, |p| *p.get_ref());
             let n = p
                 .checked_mul(w.len() - 1)
                 .map(|n| n + 1)

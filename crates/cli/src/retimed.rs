@@ -79,12 +79,23 @@ impl RetimedResult {
             .iter()
             .map(|(name, rows)| (name.clone(), at.iter().map(|&i| rows[i].clone()).collect()))
             .collect();
+        // The retimed torques are sampled, not held between the nodes: each segment ends
+        // at the next node's sample.
+        let control_ends = solution
+            .control_ends
+            .keys()
+            .filter_map(|name| {
+                let rows = self.trajectory.get(name)?;
+                Some((name.clone(), at[1..].iter().map(|&i| rows[i].clone()).collect()))
+            })
+            .collect();
         // Field by field: the solve's own node and dense tables are not copied to be dropped.
         Solution {
             status: solution.status,
             final_time: self.final_time,
             iterations: solution.iterations,
             nodes,
+            control_ends,
             trajectory: self.trajectory.clone(),
             history: solution.history.clone(),
             timings: solution.timings,

@@ -16,6 +16,8 @@
 //! # payload = { mass = 2.0, com = [0.0, 0.0, 0.05] }   # held by the tool (rigid_body)
 //! velocity_limit = 3.0           # one value or one per joint (default: the robot's)
 //! torque_limit = [8, 8, 4, 4, 2, 1, 0.5]
+//! # time_scaled_torque = false   # solve for the plain torques (default: the torques times
+//!                                # their intervals' durations, decoupled dynamics only)
 //!
 //! [time]
 //! max = 4.0                      # free final time in [min, max], minimized by default
@@ -25,7 +27,8 @@
 //!                                # a retimed result, stop once the retimed time stalls)
 //!
 //! [nodes]
-//! per_segment = 2                # waypoint k sits at node k·per_segment (or give `count`)
+//! per_segment = 3                # waypoint k sits at node k·per_segment (or give `count`;
+//!                                # default 3, 2 with dynamics = "rigid_body")
 //! # refine = 2                   # then again from that solution, every segment split in 2
 //!                                # (velocities then bounded at every grid point)
 //!
@@ -168,6 +171,13 @@ pub struct RobotSpec {
     /// dynamics, false for `dynamics = "rigid_body"` (`DynamicsModel::default_velocity_limit_peaks`).
     #[serde(default)]
     pub velocity_limit_peaks: Option<bool>,
+    /// Solve for the torques times their segments' durations (`ArmTask::time_scaled_torque`):
+    /// the decoupled model's velocities are then linear in the solver's variables and the
+    /// solve takes fewer iterations; the torque jumps at the nodes where the segments'
+    /// durations change. Default: true for the decoupled dynamics, false for
+    /// `dynamics = "rigid_body"` (`DynamicsModel::default_time_scaled_torque`).
+    #[serde(default)]
+    pub time_scaled_torque: Option<bool>,
 }
 
 /// A tool centre point's offset from the tip frame.
@@ -247,7 +257,8 @@ pub struct TimeSpec {
     pub retime_stall: Option<Spanned<bool>>,
 }
 
-/// Nodes: a count, or nodes per segment between waypoints (default 2).
+/// Nodes: a count, or nodes per segment between waypoints (default: the dynamics model's,
+/// `DynamicsModel::default_per_segment`: 3 decoupled, 2 rigid-body).
 #[derive(Debug, Clone, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NodesSpec {

@@ -243,7 +243,7 @@ fn a_refined_solve_streams_both_stages_as_one() {
     let dir = scratch("stream-refine");
     let task = dir.path().join("task.toml");
     let text = include_str!("../../../examples/pick-and-place.toml")
-        .replace("per_segment = 2 ", "refine = 2\nper_segment = 2 ");
+        .replace("per_segment = 3 ", "refine = 2\nper_segment = 3 ");
     std::fs::write(&task, text).unwrap();
     let result = dir.path().join("result.json");
     let (code, _, stderr) = armature(&[
@@ -268,7 +268,7 @@ fn a_refined_solve_streams_both_stages_as_one() {
     let (end, before) = nodal.split_last().unwrap();
     assert_eq!(end["status"], r["status"]);
     assert!(before.iter().all(|l| l["status"] == "running"), "one end only");
-    assert_eq!(end["rows"].as_array().unwrap().len(), 21);
+    assert_eq!(end["rows"].as_array().unwrap().len(), 31);
 }
 
 #[test]

@@ -76,8 +76,8 @@ fn apply(text: &str, fields: &[&str], h: &Hostility) -> Vec<u8> {
                 "discretization.substeps = 4294967297".to_string(),
                 "discretization.substeps = 1000".to_string(),
             ];
-            let nodes = if key == 3 { "per_segment = 1000" } else { "per_segment = 2" };
-            let text = text.replacen("per_segment = 2", nodes, 1).replacen(
+            let nodes = if key == 3 { "per_segment = 1000" } else { "per_segment = 3" };
+            let text = text.replacen("per_segment = 3", nodes, 1).replacen(
                 "nodes = 41",
                 "nodes = 2000",
                 1,

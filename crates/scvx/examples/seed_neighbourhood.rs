@@ -39,6 +39,7 @@ fn main() {
                 collision,
                 interval_bounds,
                 without_clearance_peaks: has("nopeaks"),
+                ..seed::Variant::default()
             })
         })
         .collect();

@@ -2,7 +2,7 @@
 //! arm crate's seed fixture, as the acceptance test), solves it and prints the iteration history and the
 //! dense-trajectory checks.
 //!
-//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [interval] [nopeaks] [dp] [qn] [ipm|clarabel]`
+//! Run: `cargo run --release -p armature-scvx --example seed_pick_and_place [-- collision] [interval] [nopeaks] [defaults] [dp] [qn] [ipm|clarabel]`
 
 #[path = "../tests/seed/mod.rs"]
 mod seed;
@@ -11,12 +11,15 @@ use armature_scvx::{IterationTable, Ptr, PtrSettings};
 
 fn main() {
     // `-- collision` solves the seed's collision variant; `interval` adds the velocity
-    // bounds between the nodes; `nopeaks` leaves out the clearances' peak rows.
+    // bounds between the nodes; `nopeaks` leaves out the clearances' peak rows; `defaults`
+    // solves the task as the arm crate states it by default (3 nodes per segment,
+    // time-scaled torques) instead of the tutorial's 2 nodes per segment.
     let has = |flag: &str| std::env::args().any(|a| a == flag);
     let s = seed::build_with(seed::Variant {
         collision: has("collision"),
         interval_bounds: has("interval"),
         without_clearance_peaks: has("nopeaks"),
+        task_defaults: has("defaults"),
     });
     let t0 = std::time::Instant::now();
     // `-- dp`: adaptive Dormand–Prince instead of fixed-step RK4.

@@ -19,9 +19,9 @@ pub use problem::{
 // Solving: compilation, the solver-level problem, the loop and its settings.
 pub use ctcs::{CtcsGroup, Penalty, ctcs_states};
 pub use discretization::{
-    DenseTrajectory, Discretization, DiscretizationError, DiscretizationSettings,
-    DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS, MAX_GRID_STEPS,
-    MAX_SUBSTEPS, SegmentHessianWorkspace,
+    ControlHolds, ControlProfile, DenseTrajectory, Discretization, DiscretizationError,
+    DiscretizationSettings, DiscretizationWorkspace, Dynamics, Integrator, MAX_ADAPTIVE_STEPS,
+    MAX_GRID_STEPS, MAX_SUBSTEPS, SegmentHessianWorkspace,
 };
 pub use ipm::IpmSettings;
 pub use problem::{CompiledProblem, Monitor, Steer};

@@ -62,9 +62,9 @@ pub use variables::{Boundary, Control, State, Time};
 
 use crate::dense_check::{BoundCheck, DenseChecks, PathCheck, nodes_on_dense};
 use crate::{
-    ConstraintRef, CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint, Iteration,
-    NodalConstraint, NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings, PtrStatus,
-    Trajectory, Violation, ctcs_states,
+    ConstraintRef, ControlHolds, CtcsGroup, DiscretizationError, Dynamics, IntervalConstraint,
+    Iteration, NodalConstraint, NodalKind, Ocp, Penalty, Ptr, PtrError, PtrResult, PtrSettings,
+    PtrStatus, Trajectory, Violation, ctcs_states,
 };
 
 /// Largest node count a [`Problem`] accepts. Memory and time per iteration grow linearly
@@ -424,7 +424,8 @@ impl CompiledProblem {
         observer: impl FnMut(&Iteration, &Trajectory<'_>),
     ) -> Result<Solution, ProblemError> {
         let t0 = Instant::now();
-        let (x, u, s) = (self.guess.0.clone(), self.guess.1.clone(), self.guess.2.clone());
+        let (x, mut u, s) = (self.guess.0.clone(), self.guess.1.clone(), self.guess.2.clone());
+        self.layout.holds.to_solver(&mut u, &s);
         let r = self.run((&x, &u, &s), observer)?;
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
         self.solution(&r, solve_ms)
@@ -443,7 +444,9 @@ impl CompiledProblem {
             return Err(bad("warm start", "the result belongs to another problem"));
         }
         self.guess.0.copy_from_slice(&r.x);
-        self.guess.1.copy_from_slice(&r.u);
+        // The guess holds the physical controls: a time-scaled entry's value where each
+        // segment starts.
+        self.guess.1.copy_from_slice(&self.layout.holds.profile(&r.u, &r.s).starts);
         self.guess.2.copy_from_slice(&r.s);
         Ok(())
     }
@@ -467,7 +470,9 @@ impl CompiledProblem {
             .dynamics
             .propagate_dense(&r.x[..n], &r.u, &r.s, self.settings.dense_dt)
             .map_err(PtrError::from)?;
-        let nodes = self.layout.tables(&node_times, &r.x, &r.u)?;
+        let profile = self.layout.holds.profile(&r.u, &r.s);
+        let nodes = self.layout.tables(&node_times, &r.x, &profile.starts)?;
+        let control_ends = self.layout.control_series(&profile.ends);
         // The defects of the CTCS integrals are the violations of what they carry.
         let rename = |v: &Violation| {
             let mut v = v.clone();
@@ -511,6 +516,7 @@ impl CompiledProblem {
             final_time: r.final_time,
             iterations: r.history.len(),
             nodes,
+            control_ends,
             trajectory,
             history: r.history.clone(),
             timings: SolutionTimings {

@@ -17,6 +17,22 @@ fn nonlinear() -> Dynamics {
     Dynamics::new(&[x], &[u], &[f], &[true, false]).unwrap()
 }
 
+/// [`nonlinear`] with a term quadratic in `u_0` and one in `u_0·u_1`, and `u_0` (first-order
+/// hold) time-scaled: the solver's variable is `w_0 = s·u_0`, so the map is
+/// `s·f(x, w_0/s, u_1)` — its curvature in `(w_0, s)` exercises every term of the
+/// transformed `G`, plain and scaled entries mixed.
+fn nonlinear_scaled() -> Dynamics {
+    let x = Expr::variable("x", 3);
+    let u = Expr::variable("u", 2);
+    let rhs = [
+        x.at(1),
+        -(x.at(0).sin()) * 9.81 + u.at(0) * x.at(2).cos() - x.at(1) * 0.1 + u.at(0) * u.at(0) * 0.2,
+        u.at(1) * 2.0 + x.at(0) * x.at(1) + u.at(0) * u.at(1) * 0.5,
+    ];
+    let f = Expr::concat(&rhs);
+    Dynamics::new(&[x], &[u], &[f], &[true, false]).unwrap().time_scaled(&[true, false]).unwrap()
+}
+
 fn propagate(d: &Dynamics, x: &[f64], u: &[f64], s: &[f64]) -> Vec<f64> {
     let mut ws = d.workspace();
     let mut out = d.output(s.len());
@@ -26,7 +42,37 @@ fn propagate(d: &Dynamics, x: &[f64], u: &[f64], s: &[f64]) -> Vec<f64> {
 
 #[test]
 fn matrices_are_derivatives_of_the_propagation_map() {
-    let d = nonlinear();
+    matrices_are_derivatives_of(nonlinear());
+}
+
+/// With a time-scaled control the dilation's column carries `f − Σ ∂f/∂u_i·u_i` and the
+/// control's columns lose their factor `s`: still the map's exact derivatives.
+#[test]
+fn matrices_are_derivatives_of_the_map_with_a_time_scaled_control() {
+    matrices_are_derivatives_of(nonlinear_scaled());
+}
+
+/// A time-scaled control enters the dynamics as `w/s`: the propagation from `w = s·u` is the
+/// plain control's from `u`, segment by segment.
+#[test]
+fn a_time_scaled_control_propagates_as_its_physical_value() {
+    let (plain, scaled) = (nonlinear(), nonlinear().time_scaled(&[true, false]).unwrap());
+    let (n, mu, nodes) = (3, 2, 4);
+    let x: Vec<f64> = (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let s = [1.5, 1.5, 1.5, 1.5];
+    let u: Vec<f64> = (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect();
+    let mut w = u.clone();
+    scaled.holds().to_solver(&mut w, &s);
+    assert_eq!(w[0], 1.5 * u[0]);
+    assert_eq!(w[1], u[1]);
+    let (a, b) = (propagate(&plain, &x, &u, &s), propagate(&scaled, &x, &w, &s));
+    for (a, b) in a.iter().zip(&b) {
+        assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+    }
+    assert!(nonlinear().time_scaled(&[true]).is_err(), "a mask of the wrong length");
+}
+
+fn matrices_are_derivatives_of(d: Dynamics) {
     let (n, mu) = (3, 2);
     let m = mu + 1;
     let nodes = 4;
@@ -545,9 +591,13 @@ struct SegmentCase {
 }
 
 fn segment_case() -> SegmentCase {
+    segment_case_of(nonlinear())
+}
+
+fn segment_case_of(d: Dynamics) -> SegmentCase {
     let (n, mu, nodes) = (3, 2, 4);
     SegmentCase {
-        d: nonlinear().gate(2, 1, 3).unwrap(),
+        d: d.gate(2, 1, 3).unwrap(),
         x: (0..nodes * n).map(|i| (i as f64 * 0.7).sin()).collect(),
         u: (0..nodes * mu).map(|i| (i as f64 * 1.3).cos()).collect(),
         s: vec![1.5, 1.2, 2.0, 2.0],
@@ -579,7 +629,19 @@ fn shift_segment_input(
 /// differ by O(h⁴)).
 #[test]
 fn segment_hessian_matches_differences_of_the_jacobians() {
-    let SegmentCase { d, x, u, s, y } = segment_case();
+    segment_hessian_matches_differences(segment_case());
+}
+
+/// The same with a time-scaled control: the transformed `G` (chain factors `s` and 1, the
+/// dilation's row and its `(1/s)·uᵀH_uu u` corner) against differences of the exact
+/// Jacobians.
+#[test]
+fn segment_hessian_with_a_time_scaled_control_matches_differences_of_the_jacobians() {
+    segment_hessian_matches_differences(segment_case_of(nonlinear_scaled()));
+}
+
+fn segment_hessian_matches_differences(case: SegmentCase) {
+    let SegmentCase { d, x, u, s, y } = case;
     let (n, nodes) = (3, 4);
     let nz = n + 2 * d.n_u() + 1;
     let error_at = |sub: usize, seg: usize| {
@@ -653,7 +715,17 @@ fn grid_gradient(
 /// of a nonlinear system with a gated row, and converges to them as the grid refines.
 #[test]
 fn segment_hessian_along_the_grid_matches_differences_of_its_sensitivities() {
-    let SegmentCase { d, x, u, s, y } = segment_case();
+    segment_hessian_along_matches_differences(segment_case());
+}
+
+/// The same with a time-scaled control.
+#[test]
+fn segment_hessian_along_the_grid_with_a_time_scaled_control_matches_differences() {
+    segment_hessian_along_matches_differences(segment_case_of(nonlinear_scaled()));
+}
+
+fn segment_hessian_along_matches_differences(case: SegmentCase) {
+    let SegmentCase { d, x, u, s, y } = case;
     let (n, nodes) = (3, 4);
     let nz = n + 2 * d.n_u() + 1;
     let error_at = |sub: usize, seg: usize| {

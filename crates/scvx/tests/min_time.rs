@@ -124,3 +124,36 @@ fn quasi_newton_reaches_the_minimum_time() {
     }
     assert!(close >= sweep.len() - 2, "{close} of {} within 0.1 %", sweep.len());
 }
+
+/// With the acceleration time-scaled (the solver's variable `w = s·a`, `v' = w` linear in
+/// it) the bounds `|a| ≤ 1` become the rows `|w| ≤ s_k` at both ends of every segment: the
+/// solve reaches the same bang–bang optimum, and the physical acceleration `w/s_k` holds
+/// its bound all along every segment.
+#[test]
+fn a_time_scaled_acceleration_reaches_the_bang_bang_optimum_within_its_bounds() {
+    let nodes = 41;
+    let mut ocp = problem(nodes, |_, _, _| vec![]);
+    ocp.dynamics = ocp.dynamics.time_scaled(&[true]).unwrap();
+    let holds = ocp.dynamics.holds();
+    let mut ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    let (x, u, s) = poor_guess(nodes);
+    let r = ptr.solve(&x, &u, &s).unwrap();
+    eprintln!(
+        "time-scaled: {:?} after {} iterations, T = {}",
+        r.status,
+        r.history.len(),
+        r.final_time
+    );
+    assert_eq!(r.status, PtrStatus::Converged, "{:?}", r.status);
+    assert!(r.final_time >= 2.0 - 1e-6 && r.final_time < 2.0 * 1.01, "final time {}", r.final_time);
+    let profile = holds.profile(&r.u, &r.s);
+    let a = profile.starts.iter().chain(&profile.ends);
+    let largest = a.fold(0.0f64, |m, a| m.max(a.abs()));
+    assert!(largest <= 1.0 + 1e-7 && largest > 1.0 - 1e-6, "largest |a| {largest}");
+    // Full acceleration first, full braking last.
+    assert!((profile.starts[0] - 1.0).abs() < 1e-6, "{:?}", profile.starts);
+    assert!((profile.ends[nodes - 2] + 1.0).abs() < 1e-6, "{:?}", profile.ends);
+    // The dense re-integration (physical accelerations) reaches the target at rest.
+    let last = &r.x[(nodes - 1) * 2..];
+    assert!((last[0] - 1.0).abs() < 1e-6 && last[1].abs() < 1e-6);
+}

@@ -3,7 +3,7 @@
 //! With the native interior point a step allocates nothing at all once the KKT patterns it
 //! meets have been analysed: the collision variant switches far segments' peak rows off, and
 //! the interior point analyses each set of switched-off rows once (a first solve of the same
-//! problem does it here), then reuses it. The one allocation left
+//! problem and a first pass over the counted steps do it here), then reuses it. The one allocation left
 //! per step with Clarabel is Clarabel's: each `solve()` rebuilds its timer map (a `HashMap` keyed by phase
 //! name), which no setting turns off. (Parallel discretization adds rayon's boxed job per
 //! spawned lane; `rayon::join` would not allocate but, called from outside the pool, made
@@ -26,6 +26,14 @@ fn ptr_steps_are_allocation_free() {
     // The collision variant evaluates its clearances on the grid for their peak rows (values
     // everywhere, Jacobians at the stencils).
     let collision = seed::build_collision();
+    // The task's defaults: time-scaled torques (their bounds rows, the dilation column's
+    // extra terms, the transformed curvature) on 3 nodes per segment.
+    let scaled = seed::build_with(seed::Variant { task_defaults: true, ..Default::default() });
+    let scaled_collision = seed::build_with(seed::Variant {
+        collision: true,
+        task_defaults: true,
+        ..Default::default()
+    });
     // (problem, quasi-Newton, exact Hessian, second-order correction, solver)
     for (s, quasi_newton, exact, soc, solver) in [
         (&plain, false, false, false, SubproblemSolver::Clarabel),
@@ -41,6 +49,8 @@ fn ptr_steps_are_allocation_free() {
         (&collision, false, false, false, SubproblemSolver::InteriorPoint),
         (&collision, false, true, false, SubproblemSolver::InteriorPoint),
         (&collision, false, false, true, SubproblemSolver::InteriorPoint),
+        (&scaled, false, true, true, SubproblemSolver::InteriorPoint),
+        (&scaled_collision, false, true, true, SubproblemSolver::InteriorPoint),
     ] {
         let settings = {
             let mut s = PtrSettings::default();
@@ -58,6 +68,12 @@ fn ptr_steps_are_allocation_free() {
         };
         let mut ptr = Ptr::new(s.ocp.clone(), settings).unwrap();
         ptr.solve(&s.x, &s.u, &s.s).unwrap();
+        // The walk is deterministic: the steps counted below meet the row-switch patterns
+        // these first ones met (each analysed once, on its first meeting).
+        ptr.start(&s.x, &s.u, &s.s).unwrap();
+        for _ in 0..7 {
+            ptr.step().unwrap();
+        }
         ptr.start(&s.x, &s.u, &s.s).unwrap();
         ptr.step().unwrap();
         ptr.step().unwrap();

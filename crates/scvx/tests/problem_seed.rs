@@ -1,13 +1,17 @@
 //! The seed pick-and-place through the named problem layer, as `armature_arm` builds it
-//! (the tutorial's formulation, written once for the whole repo): converges with named
-//! nodal and dense trajectories, algebraic outputs and a JSON result with the stable
-//! top-level keys; broken problems say what is wrong.
+//! (the tutorial's formulation, written once for the whole repo, with the task's defaults: 3
+//! nodes per segment, time-scaled torques): converges with named nodal and dense
+//! trajectories, algebraic outputs and a JSON result with the stable top-level keys; broken
+//! problems say what is wrong.
 
 mod seed;
 
 use armature_arm::fixtures;
 use armature_scvx::{Problem, ProblemError, PtrSettings, Time};
 use armature_symbolic::Expr;
+
+/// The seed task's node count.
+const NODES: usize = 16;
 
 /// The seed's problem and the guess of its segments' durations.
 fn seed_problem() -> (Problem, Vec<f64>) {
@@ -26,12 +30,12 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     assert!(sol.final_time <= 4.0 + 1e-9);
     // Named series, at the nodes and dense.
     for key in ["time", "angle", "velocity", "torque", "ee_position", "T_ee"] {
-        assert_eq!(sol.nodes[key].len(), seed::NODES, "{key}");
+        assert_eq!(sol.nodes[key].len(), NODES, "{key}");
         assert!(sol.trajectory[key].len() > 100, "{key}");
     }
     assert!(!sol.nodes.keys().any(|k| k.starts_with('_')), "internal states are not exposed");
     assert_eq!(sol.nodes["T_ee"][0].len(), 16);
-    assert!((sol.nodes["time"][seed::NODES - 1][0] - sol.final_time).abs() < 1e-12);
+    assert!((sol.nodes["time"][NODES - 1][0] - sol.final_time).abs() < 1e-12);
     // The outputs evaluated from named states and controls alone (as for a retimed
     // trajectory) are the dense trajectory's; a missing or ill-shaped series is named.
     let times: Vec<f64> = sol.trajectory["time"].iter().map(|r| r[0]).collect();
@@ -46,8 +50,8 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     let e = compiled.layout().tables_named(&times, &short).unwrap_err().to_string();
     assert!(e.contains("`angle` needs"), "{e}");
     // Waypoints from the ee_position output, table and limits on the dense trajectory.
-    for (w, p) in fixtures::pick_and_place().waypoints.iter().map(|w| w.position).enumerate() {
-        let e = &sol.nodes["ee_position"][2 * w];
+    for (w, wp) in fixtures::pick_and_place().waypoints.iter().enumerate() {
+        let (e, p) = (&sol.nodes["ee_position"][wp.node], wp.position);
         let d = ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt();
         assert!(d <= 0.01 + 1e-6, "waypoint {w}: {d} m");
     }
@@ -90,7 +94,7 @@ fn seed_through_the_problem_layer_converges_with_named_outputs() {
     );
     let again = compiled.solve().unwrap();
     solved(&again);
-    let e = &again.nodes["ee_position"][10];
+    let e = &again.nodes["ee_position"][NODES - 1];
     let d = ((e[0] - 0.30).powi(2) + (e[1] - 0.28).powi(2) + (e[2] - 0.05).powi(2)).sqrt();
     assert!(d <= 0.01 + 1e-6, "moved waypoint: {d} m");
 }
@@ -168,7 +172,7 @@ fn a_monitor_that_drops_the_cost_is_consulted_until_then_and_the_solve_ends_feas
     let layout = compiled.layout().clone();
     compiled.set_monitor(Some(Monitor::new(move |it, trajectory| {
         seen.fetch_add(1, Ordering::Relaxed);
-        assert_eq!(trajectory.nodes, seed::NODES);
+        assert_eq!(trajectory.nodes, NODES);
         // The iterate by name without its outputs: the same rows as with them.
         let (series, tables) =
             (layout.nodal_series(trajectory).unwrap(), layout.nodal_tables(trajectory).unwrap());

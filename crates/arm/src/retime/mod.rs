@@ -18,6 +18,9 @@ use crate::dynamics::Resolved;
 use crate::node_tables::NodeTables;
 use crate::{ArmError, ArmTask, TaskItem};
 
+/// Series by name, one row per node (or per segment end), as a solution's tables hold them.
+type Tables = BTreeMap<String, Vec<Vec<f64>>>;
+
 /// A trajectory retimed along its path: samples at the points of the retiming grid (about
 /// 2000, closer in time where the arm moves slowly), each with its time, angles, velocities,
 /// accelerations and torques.
@@ -76,12 +79,16 @@ impl ArmTask {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn retime(&self, solution: &Solution) -> Result<Retimed, ArmError> {
-        self.retime_tables(&solution.nodes, path::POINTS, MIDPOINT_REFINEMENTS)
+        let ends = Some(&solution.control_ends);
+        self.retime_tables((&solution.nodes, ends), path::POINTS, MIDPOINT_REFINEMENTS)
     }
 
     /// The final time of the trajectory whose node tables are `nodes` (`time`, `angle`,
     /// `velocity`, `torque`: a solution's, or an iterate's from
-    /// [`SolutionLayout::nodal_series`](armature_scvx::SolutionLayout::nodal_series)) retimed
+    /// [`SolutionLayout::nodal_series`](armature_scvx::SolutionLayout::nodal_series)), with
+    /// its torques where each segment ends in `control_ends` (a solution's, or
+    /// [`SolutionLayout::nodal_control_ends`](armature_scvx::SolutionLayout::nodal_control_ends);
+    /// `None`: each next node's), retimed
     /// along its path as [`retime`](Self::retime) does, on a grid of about `points` points
     /// (at least 4 per segment; `retime` samples about 2000): a coarser grid estimates the
     /// same time at a fraction of the cost, to follow a solve's progress.
@@ -90,10 +97,11 @@ impl ArmTask {
     /// As [`retime`](Self::retime).
     pub fn retimed_final_time(
         &self,
-        nodes: &BTreeMap<String, Vec<Vec<f64>>>,
+        nodes: &Tables,
+        control_ends: Option<&Tables>,
         points: usize,
     ) -> Result<f64, ArmError> {
-        self.retime_tables(nodes, points, 0).map(|r| r.final_time)
+        self.retime_tables((nodes, control_ends), points, 0).map(|r| r.final_time)
     }
 
     /// [`retime`](Self::retime) of the node tables `nodes` on about `points` points, the grid
@@ -101,7 +109,7 @@ impl ArmTask {
     /// ([`midpoint_torque_excess`]).
     fn retime_tables(
         &self,
-        nodes: &BTreeMap<String, Vec<Vec<f64>>>,
+        (nodes, ends): (&Tables, Option<&Tables>),
         points: usize,
         refinements: usize,
     ) -> Result<Retimed, ArmError> {
@@ -115,7 +123,7 @@ impl ArmTask {
             return Err(ArmError::new(TaskItem::TorqueLimit, format!("{n} limits > 0 needed")));
         }
         let bad = |m: String| ArmError::new(TaskItem::Solution, m);
-        let nodes = NodeTables::new(nodes, n).map_err(bad)?;
+        let nodes = NodeTables::new(nodes, ends, n).map_err(bad)?;
         if !nodes.at_rest() {
             return Err(bad("retiming needs a trajectory from rest to rest".into()));
         }
@@ -215,7 +223,7 @@ fn samples(
         let (dq, ddq) = (&path.dq[i], &path.ddq[i]);
         out.velocity.push(dq.iter().map(|d| d * speed).collect());
         out.acceleration.push(dq.iter().zip(ddq).map(|(d, dd)| dd * x + d * u).collect());
-        out.torque.push(coef[i].iter().map(|[a, b, c]| a * u + b * x + c).collect());
+        out.torque.push(coef[i].iter().map(|[a, b, c, _]| a * u + b * x + c).collect());
     }
     out
 }
@@ -231,18 +239,19 @@ mod tests {
         let resolved = Resolved::new(&seed.dynamics, &seed.chain).unwrap();
         let excess =
             |r: &Retimed| midpoint_torque_excess(&mut Model::new(&resolved), r, &seed.torque_limit);
-        // On 200 points the seed's torque passes a limit between two samples (by 8e-5 N·m):
-        // one doubling holds it.
-        let coarse = seed.retime_tables(&solution.nodes, 200, 0).unwrap();
+        // On 400 points the seed's torque passes a limit between two samples (by 4e-3 N·m,
+        // 3e-4 on 800): two doublings hold it.
+        let tables = (&solution.nodes, Some(&solution.control_ends));
+        let coarse = seed.retime_tables(tables, 400, 0).unwrap();
         assert!(excess(&coarse) > 0.0);
-        let refined = seed.retime_tables(&solution.nodes, 200, 3).unwrap();
+        let refined = seed.retime_tables(tables, 400, 3).unwrap();
         assert!(excess(&refined) <= 0.0);
         assert!(refined.time.len() > coarse.time.len());
         assert!((refined.final_time - coarse.final_time).abs() < 1e-2 * coarse.final_time);
         // A grid that holds it stays as it is.
-        let fine = seed.retime_tables(&solution.nodes, 400, 0).unwrap();
+        let fine = seed.retime_tables(tables, 1600, 0).unwrap();
         assert!(excess(&fine) <= 0.0);
-        assert_eq!(seed.retime_tables(&solution.nodes, 400, 3).unwrap(), fine);
+        assert_eq!(seed.retime_tables(tables, 1600, 3).unwrap(), fine);
         assert!(excess(&seed.retime(&solution).unwrap()) <= 0.0);
     }
 }

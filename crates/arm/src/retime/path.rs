@@ -29,6 +29,9 @@ pub(crate) struct PathSamples {
     pub(crate) q: Table,
     pub(crate) dq: Table,
     pub(crate) ddq: Table,
+    /// `q″(σ)` where the interval before each point ends: `ddq` except at a node where the
+    /// torque jumps (a time-scaled solution's segments change duration there).
+    pub(crate) ddq_before: Table,
     pub(crate) nodes: Vec<usize>,
 }
 
@@ -93,20 +96,28 @@ pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>, points: usiz
         q: Vec::with_capacity(points + 1),
         dq: Vec::with_capacity(points + 1),
         ddq: Vec::with_capacity(points + 1),
+        ddq_before: Vec::with_capacity(points + 1),
         nodes: vec![0],
     };
     let mut acc = vec![0.0; n];
     let mut tau = vec![0.0; n];
-    let mut push = |out: &mut PathSamples, model: &mut Model<'_>, s, q: &[f64], qd: &[f64]| {
-        let k = nodes.times.partition_point(|&t| t <= s).clamp(1, nodes.times.len() - 1) - 1;
-        torque_at(nodes, k, s, &mut tau);
-        model.qdd(q, qd, &tau, &mut acc);
-        out.sigma.push(s);
-        out.q.push(q.to_vec());
-        out.dq.push(qd.to_vec());
-        out.ddq.push(acc.clone());
-    };
-    push(&mut out, model, nodes.times[0], &q, &qd);
+    // A point at `s` on segment `before` (its end, at a node): q″ there on both sides.
+    let mut push =
+        |out: &mut PathSamples, model: &mut Model<'_>, s, before, q: &[f64], qd: &[f64]| {
+            let k = nodes.times.partition_point(|&t| t <= s).clamp(1, nodes.times.len() - 1) - 1;
+            torque_at(nodes, before, s, &mut tau);
+            model.qdd(q, qd, &tau, &mut acc);
+            out.ddq_before.push(acc.clone());
+            if k != before {
+                torque_at(nodes, k, s, &mut tau);
+                model.qdd(q, qd, &tau, &mut acc);
+            }
+            out.sigma.push(s);
+            out.q.push(q.to_vec());
+            out.dq.push(qd.to_vec());
+            out.ddq.push(acc.clone());
+        };
+    push(&mut out, model, nodes.times[0], 0, &q, &qd);
     let (mut k1, mut k2, mut k3, mut k4) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let (mut qs, mut vs, mut ts) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let zero = vec![0.0; n];
@@ -138,7 +149,7 @@ pub(crate) fn sample(model: &mut Model<'_>, nodes: &NodeTables<'_>, points: usiz
                 qd[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
             }
             let end = if i + 2 == cuts.len() { nodes.times[k + 1] } else { w[1] };
-            push(&mut out, model, end, &q, &qd);
+            push(&mut out, model, end, k, &q, &qd);
         }
         out.nodes.push(out.sigma.len() - 1);
     }
@@ -175,7 +186,7 @@ fn torque_at(nodes: &NodeTables<'_>, k: usize, s: f64, out: &mut [f64]) {
     let (t0, t1) = (nodes.times[k], nodes.times[k + 1]);
     let w = ((s - t0) / (t1 - t0)).clamp(0.0, 1.0);
     for (j, o) in out.iter_mut().enumerate() {
-        *o = (1.0 - w) * nodes.u[k][j] + w * nodes.u[k + 1][j];
+        *o = (1.0 - w) * nodes.u[k][j] + w * nodes.u_end[k][j];
     }
 }
 

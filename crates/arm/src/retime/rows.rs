@@ -15,33 +15,38 @@ use crate::dynamics::Resolved;
 /// (measured on the benchmark suite: up to 4e-5 of the limit over it without a margin).
 pub(crate) const LIMIT_SHARE: f64 = 1.0 - 1e-4;
 
-/// Per point, per joint: the torque's `(a, b, c)`.
-pub(crate) type Coefficients = Vec<Vec<[f64; 3]>>;
+/// Per point, per joint: the torque's `(a, b, c)`, and `b` where the interval before the
+/// point ends (it differs where `q″` jumps, [`PathSamples::ddq_before`]).
+pub(crate) type Coefficients = Vec<Vec<[f64; 4]>>;
 
 /// The torque coefficients at every point of `path` (NaN where the model fails).
 pub(crate) fn torque_coefficients(model: &mut Model<'_>, path: &PathSamples) -> Coefficients {
     let n = path.q.first().map_or(0, Vec::len);
     let zero = vec![0.0; n];
-    let (mut g, mut ma, mut mb) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut g, mut ma, mut mb, mut mb0) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     (0..path.q.len())
         .map(|i| {
-            let (q, dq, ddq) = (&path.q[i], &path.dq[i], &path.ddq[i]);
+            let (q, dq, ddq, ddq0) = (&path.q[i], &path.dq[i], &path.ddq[i], &path.ddq_before[i]);
             match (model.resolved, model.ws.as_mut()) {
                 (Resolved::RigidBody(m), Some(ws)) => {
                     let ok = m.rnea(ws, q, &zero, &zero, &mut g).is_ok()
                         && m.rnea(ws, q, &zero, dq, &mut ma).is_ok()
-                        && m.rnea(ws, q, dq, ddq, &mut mb).is_ok();
+                        && m.rnea(ws, q, dq, ddq, &mut mb).is_ok()
+                        && m.rnea(ws, q, dq, ddq0, &mut mb0).is_ok();
                     (0..n)
                         .map(|j| match ok {
-                            true => [ma[j] - g[j], mb[j] - g[j], g[j]],
-                            false => [f64::NAN; 3],
+                            true => [ma[j] - g[j], mb[j] - g[j], g[j], mb0[j] - g[j]],
+                            false => [f64::NAN; 4],
                         })
                         .collect()
                 }
-                (Resolved::Decoupled(inertia), _) => {
-                    (0..n).map(|j| [inertia[j] * dq[j], inertia[j] * ddq[j], 0.0]).collect()
-                }
-                (Resolved::RigidBody(_), None) => vec![[f64::NAN; 3]; n],
+                (Resolved::Decoupled(inertia), _) => (0..n)
+                    .map(|j| {
+                        let i = inertia[j];
+                        [i * dq[j], i * ddq[j], 0.0, i * ddq0[j]]
+                    })
+                    .collect(),
+                (Resolved::RigidBody(_), None) => vec![[f64::NAN; 4]; n],
             }
         })
         .collect()
@@ -69,11 +74,11 @@ pub(crate) fn stages(
             let mut rows = Vec::with_capacity(4 * torque_limit.len());
             for (j, &limit) in torque_limit.iter().enumerate() {
                 let limit = LIMIT_SHARE * limit;
-                let [a, b, c] = coef[i][j];
+                let [a, b, c, _] = coef[i][j];
                 rows.push([a, b, limit - c]);
                 rows.push([-a, -b, limit + c]);
                 if i + 1 < points {
-                    let [a1, b1, c1] = coef[i + 1][j];
+                    let [a1, _, c1, b1] = coef[i + 1][j];
                     let a_end = a1 + 2.0 * delta[i] * b1;
                     rows.push([a_end, b1, limit - c1]);
                     rows.push([-a_end, -b1, limit + c1]);
@@ -103,6 +108,7 @@ mod tests {
             q: vec![q.clone()],
             dq: vec![dq.clone()],
             ddq: vec![ddq.clone()],
+            ddq_before: vec![ddq.clone()],
             nodes: vec![0],
         };
         let coef = torque_coefficients(&mut Model::new(&resolved), &path);
@@ -112,7 +118,7 @@ mod tests {
         let mut tau = vec![0.0; 6];
         model.rnea(&mut model.workspace(), &q, &qd, &qdd, &mut tau).unwrap();
         for j in 0..6 {
-            let [a, b, c] = coef[0][j];
+            let [a, b, c, _] = coef[0][j];
             assert!((a * u + b * x + c - tau[j]).abs() < 1e-10, "joint {j}");
         }
     }

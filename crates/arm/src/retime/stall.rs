@@ -130,7 +130,8 @@ impl RetimeStall {
                 return Steer::Continue;
             }
             let Ok(tables) = layout.nodal_series(t) else { return Steer::Continue };
-            let Ok(time) = task.retimed_final_time(&tables, self.points) else {
+            let ends = layout.nodal_control_ends(t);
+            let Ok(time) = task.retimed_final_time(&tables, Some(&ends), self.points) else {
                 return Steer::Continue;
             };
             let keepable = self.rewind && it.max_violation <= self.rewind_gate;

@@ -45,7 +45,8 @@ impl Dynamics {
         let dtau = 1.0 / (nodes - 1) as f64;
         let mut ws = self.lane();
         let (mut times, mut states) = (vec![0.0], x0.to_vec());
-        let mut controls = u[..mu].to_vec();
+        let mut controls: Vec<f64> =
+            (0..mu).map(|i| self.physical_control(i, u[i], s[0])).collect();
         let mut segment = vec![0];
         let mut x = x0.to_vec();
         let (mut k0, mut k1, mut k2, mut k3, mut tmp) =
@@ -61,8 +62,8 @@ impl Dynamics {
                     let FEval { ws: fws, input, fval, .. } = &mut ws.f;
                     input[..n].copy_from_slice(x);
                     for i in 0..mu {
-                        input[n + i] =
-                            if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+                        let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+                        input[n + i] = self.physical_control(i, w, s[seg]);
                     }
                     self.f.eval(input, fws, fval, None)?;
                     for &(row, first, end) in &self.gates {
@@ -98,7 +99,8 @@ impl Dynamics {
                 states.extend_from_slice(&x);
                 segment.push(seg);
                 for i in 0..mu {
-                    controls.push(if self.foh[i] { uk[i] + b1 * (uk1[i] - uk[i]) } else { uk[i] });
+                    let w = if self.foh[i] { uk[i] + b1 * (uk1[i] - uk[i]) } else { uk[i] };
+                    controls.push(self.physical_control(i, w, s[seg]));
                 }
             }
         }

@@ -314,23 +314,47 @@ impl Dynamics {
         }
         ws.input[..n].copy_from_slice(&v[..n]);
         for i in 0..mu {
-            ws.input[n + i] = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+            let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+            ws.input[n + i] = self.physical_control(i, w, s);
         }
         let SegmentHessianWorkspace { hws, input, values, jac, hess, weights, g, .. } = ws;
         self.f.eval_hessian(input, weights, hws, values, Some(jac), hess)?;
         g.fill(0.0);
         for ((r, c), &h) in self.f.hessian_pattern().lower().entries().zip(hess.iter()) {
-            g[r * nv + c] += s * h;
+            g[r * nv + c] += h;
             if r != c {
-                g[c * nv + r] += s * h;
+                g[c * nv + r] += h;
             }
         }
-        for c in 0..n + mu {
-            let grad: f64 = (self.col_ptr[c]..self.col_ptr[c + 1])
+        // With H = ∇²(λᵀf), ∇(λᵀf) and the chain factors c_a = s (states, plain controls)
+        // or 1 (time-scaled controls, u = w/s):
+        //   G_ab = c_a c_b H_ab / s,
+        //   G_as = [a plain]·∇_a(λᵀf) − (c_a/s) Σ_{i scaled} H_{a,u_i} u_i,
+        //   G_ss = (1/s) Σ_{i,l scaled} u_i H_{u_i,u_l} u_l
+        // (without time-scaled entries: s·H, ∇(λᵀf) and 0).
+        let scaled = |a: usize| a >= n && self.time_scaled[a - n];
+        let c_of = |a: usize| if scaled(a) { 1.0 } else { s };
+        let hu = |g: &[f64], a: usize| -> f64 {
+            (0..mu).filter(|&i| self.time_scaled[i]).map(|i| g[a * nv + n + i] * input[n + i]).sum()
+        };
+        let mut g_ss = 0.0;
+        for i in (0..mu).filter(|&i| self.time_scaled[i]) {
+            g_ss += input[n + i] * hu(g, n + i) / s;
+        }
+        for a in 0..n + mu {
+            let grad: f64 = (self.col_ptr[a]..self.col_ptr[a + 1])
                 .map(|p| weights[self.rows[p]] * jac[p])
                 .sum();
-            g[c * nv + nv - 1] = grad;
-            g[(nv - 1) * nv + c] = grad;
+            let plain = if scaled(a) { 0.0 } else { grad };
+            let g_as = plain - c_of(a) / s * hu(g, a);
+            g[a * nv + nv - 1] = g_as;
+            g[(nv - 1) * nv + a] = g_as;
+        }
+        g[nv * nv - 1] = g_ss;
+        for a in 0..n + mu {
+            for b in 0..n + mu {
+                g[a * nv + b] *= c_of(a) * c_of(b) / s;
+            }
         }
         Ok(())
     }

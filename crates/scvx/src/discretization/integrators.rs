@@ -144,7 +144,8 @@ impl Dynamics {
         let FEval { ws: fws, input, fval, jac, needed } = fe;
         input[..n].copy_from_slice(&v[..n]);
         for i in 0..mu {
-            input[n + i] = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+            let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+            input[n + i] = self.physical_control(i, w, s);
         }
         if !full {
             // The state alone: no Jacobian, no variational equations.
@@ -197,18 +198,26 @@ impl Dynamics {
                 axpy(&mut dv[bp0 + r * m..][..m], a, &v[bp0 + j * m..][..m]);
             }
         }
-        // Control columns: s ∂f/∂u · diag(α) into B⁻, · diag(β) into B⁺.
+        // Control columns: s ∂f/∂u · diag(α) into B⁻, · diag(β) into B⁺ (∂f/∂u alone for a
+        // time-scaled entry: ∂(s f(x, w/s))/∂w = ∂f/∂u).
         for i in 0..mu {
             let (alpha, b) = if self.foh[i] { (1.0 - beta, beta) } else { (1.0, 0.0) };
+            let scale = if self.time_scaled[i] { 1.0 } else { s };
             for p in self.col_ptr[n + i]..self.col_ptr[n + i + 1] {
-                let (r, d) = (self.rows[p], s * jac[p]);
+                let (r, d) = (self.rows[p], scale * jac[p]);
                 dv[bm0 + r * m + i] += d * alpha;
                 dv[bp0 + r * m + i] += d * b;
             }
         }
-        // The dilation column: ∂(s f)/∂s = f, zero-order hold.
+        // The dilation column: ∂(s f)/∂s = f, zero-order hold; with time-scaled entries
+        // (u = w/s) less Σ ∂f/∂u_i · u_i.
         for r in 0..n {
             dv[bm0 + r * m + mu] += fval[r];
+        }
+        for i in (0..mu).filter(|&i| self.time_scaled[i]) {
+            for p in self.col_ptr[n + i]..self.col_ptr[n + i + 1] {
+                dv[bm0 + self.rows[p] * m + mu] -= jac[p] * input[n + i];
+            }
         }
         Ok(())
     }

@@ -25,11 +25,13 @@
 
 use armature_symbolic::{Expr, Function, SparsityPattern, SymbolicError, Workspace};
 
+mod control_holds;
 mod dense;
 mod hessian;
 mod integrators;
 mod lanes;
 
+pub use control_holds::{ControlHolds, ControlProfile};
 pub use hessian::SegmentHessianWorkspace;
 use integrators::*;
 use lanes::*;
@@ -107,6 +109,9 @@ pub struct Dynamics {
     n_x: usize,
     n_u: usize,
     foh: Vec<bool>,
+    /// Per control entry: time-scaled (the variable is `w = s·u`, see
+    /// [`Dynamics::time_scaled`]).
+    time_scaled: Vec<bool>,
     /// CSC columns of the Jacobian: for input column j, (row, nonzero position) pairs.
     col_ptr: Vec<usize>,
     rows: Vec<usize>,
@@ -265,6 +270,7 @@ impl Dynamics {
             n_x,
             n_u,
             foh: foh.to_vec(),
+            time_scaled: vec![false; n_u],
             col_ptr: p.col_ptr().to_vec(),
             rows: p.row_idx().to_vec(),
             f,
@@ -287,6 +293,44 @@ impl Dynamics {
     /// velocity' = τ/I, 4 CTCS rows) this keeps 194 of the 612 entries per segment.
     pub fn transition_pattern(&self) -> &SparsityPattern {
         &self.transition
+    }
+
+    /// Marks control entries as time-scaled: the solver's variable for entry `i` is then
+    /// `w_i = s·u_i` (the control times the segment's dilation) and the dynamics see
+    /// `u_i = w_i / s`, so `dx/dτ = s·f(x, w/s)`. Where `f` is affine in `u_i` (a torque
+    /// through an inertia), the term becomes linear in `w_i` and no longer multiplies the
+    /// dilation: the linearization of a step that changes both the time and the control is
+    /// exact in that term. The bounds of a time-scaled entry are the physical `u`'s, held on
+    /// each segment by `u_min·s_k ≤ w ≤ u_max·s_k` at both of its ends.
+    ///
+    /// # Errors
+    /// A mask of the wrong length.
+    pub fn time_scaled(mut self, mask: &[bool]) -> Result<Dynamics, DiscretizationError> {
+        if mask.len() != self.n_u {
+            return Err(DiscretizationError::Size(format!(
+                "time-scaled mask has {} entries for {} controls",
+                mask.len(),
+                self.n_u
+            )));
+        }
+        self.time_scaled = mask.to_vec();
+        Ok(self)
+    }
+
+    /// Whether control entry `i` is time-scaled ([`time_scaled`](Self::time_scaled)).
+    pub fn is_time_scaled(&self, i: usize) -> bool {
+        self.time_scaled.get(i).copied().unwrap_or(false)
+    }
+
+    /// Whether control entry `i` is first-order hold.
+    pub fn is_foh(&self, i: usize) -> bool {
+        self.foh.get(i).copied().unwrap_or(false)
+    }
+
+    /// The control `u` the dynamics see from the variable `w` of entry `i` on a segment of
+    /// dilation `s`: `w / s` if time-scaled, else `w`.
+    pub fn physical_control(&self, i: usize, w: f64, s: f64) -> f64 {
+        if self.is_time_scaled(i) { w / s } else { w }
     }
 
     /// Restricts state row `row`'s dynamics to segments `first..end` (a CTCS interval; the

@@ -289,7 +289,9 @@ impl Problem {
             let d = &ocp.dynamics;
             let mut ws = d.workspace();
             let mut out = d.output(nn);
-            d.discretize(&x, &u, &s, &settings.discretization, &mut ws, &mut out)
+            let mut w = u.clone();
+            d.holds().to_solver(&mut w, &s);
+            d.discretize(&x, &w, &s, &settings.discretization, &mut ws, &mut out)
                 .map_err(PtrError::from)?;
             for k in 0..nn - 1 {
                 for r in named..n {

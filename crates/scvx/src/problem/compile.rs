@@ -84,6 +84,7 @@ impl Problem {
         let (outputs, output_fn) = self.outputs(&args)?;
         let parts = (dynamics, nodal, interval_constraints);
         let ocp = self.ocp(parts, &groups, n_named, dilation);
+        refuse_time_scaled_reads(&ocp)?;
         let guess = self.guess(&ocp, n, &settings)?;
         let blocks = |names: Vec<(String, usize)>| {
             let mut off = 0;
@@ -126,6 +127,7 @@ impl Problem {
                 output_fn,
                 n,
                 m: self.controls.iter().map(Control::size).sum(),
+                holds: ocp.dynamics.holds(),
             },
             ptr: Ptr::new(ocp, settings.clone())?,
             monitor: None,
@@ -230,6 +232,12 @@ impl Problem {
                 }
                 DiscretizationError::Size(reason) => bad("dynamics", reason),
             })?;
+        let scaled: Vec<bool> = self
+            .controls
+            .iter()
+            .flat_map(|c| std::iter::repeat_n(c.time_scaled, c.size()))
+            .collect();
+        dynamics = dynamics.time_scaled(&scaled).map_err(|e| bad("controls", e.to_string()))?;
         for (i, (g, _)) in groups.iter().enumerate() {
             dynamics = dynamics
                 .gate(n_named + i, g.first, g.last)
@@ -438,4 +446,28 @@ impl Problem {
             interval_constraints,
         }
     }
+}
+
+/// Refuses a nodal constraint that reads a time-scaled control: at the nodes the solver holds
+/// `w = s·u`, and the constraint would see `w` where its author wrote `u`.
+///
+/// # Errors
+/// [`ProblemError::Bad`] naming the constraint and the control entry.
+fn refuse_time_scaled_reads(ocp: &Ocp) -> Result<(), ProblemError> {
+    let (d, n) = (&ocp.dynamics, ocp.dynamics.n_x());
+    for c in &ocp.nodal {
+        let read = c.function.jacobian_pattern().entries().map(|(_, col)| col);
+        if let Some(col) = read.filter(|&col| col >= n).find(|&col| d.is_time_scaled(col - n)) {
+            return Err(bad(
+                format!("constraint \"{}\"", c.name),
+                format!(
+                    "reads control entry {} at the nodes, which is time-scaled (the solver holds \
+                     the control times its segment's dilation there); constrain it through its \
+                     bounds, or do not time-scale it",
+                    col - n
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

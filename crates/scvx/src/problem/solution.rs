@@ -14,6 +14,7 @@ pub struct SolutionLayout {
     pub(super) output_fn: Option<Function>,
     pub(super) n: usize,
     pub(super) m: usize,
+    pub(super) holds: ControlHolds,
 }
 
 /// A solve's result by name, with stable top-level keys (scripts depend on them).
@@ -29,6 +30,13 @@ pub struct Solution {
     /// At the nodes: `time`, every state, control and algebraic output by name, each as
     /// rows (one per node; matrix outputs row-major).
     pub nodes: BTreeMap<String, Vec<Vec<f64>>>,
+    /// Every control by name at the end of each segment (N − 1 rows): on segment k a
+    /// first-order-hold control runs linearly from `nodes[name][k]` to
+    /// `control_ends[name][k]`. That is the next node's value, except for a time-scaled
+    /// control ([`Control::time_scaled`](crate::Control#structfield.time_scaled)), which
+    /// jumps at a node where the segments' durations change (its node table holds the value
+    /// where each segment starts), and a zero-order-hold one (its value at the start).
+    pub control_ends: BTreeMap<String, Vec<Vec<f64>>>,
     /// The same on the dense trajectory (single shooting from the initial state at
     /// `dense_dt`, first-order-hold controls).
     pub trajectory: BTreeMap<String, Vec<Vec<f64>>>,
@@ -130,6 +138,18 @@ impl SolutionLayout {
         Ok(t)
     }
 
+    /// Name → rows of every control for flat control rows `u` (rows of m).
+    pub(crate) fn control_series(&self, u: &[f64]) -> BTreeMap<String, Vec<Vec<f64>>> {
+        let m = self.m.max(1);
+        self.controls
+            .iter()
+            .map(|b| {
+                let rows = u.chunks(m).map(|r| r[b.offset..b.offset + b.size].to_vec());
+                (b.name.clone(), rows.collect())
+            })
+            .collect()
+    }
+
     /// Name → rows for samples given by name (e.g. a trajectory retimed outside the solver):
     /// every state and control of the layout is read from `series` (one row of its width
     /// per sample), the CTCS integrals are zero, and every output is evaluated, as
@@ -175,7 +195,7 @@ impl SolutionLayout {
         &self,
         t: &Trajectory<'_>,
     ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
-        self.tables(&node_times(t), t.x, t.u)
+        self.tables(&node_times(t), t.x, &self.holds.profile(t.u, t.s).starts)
     }
 
     /// As [`nodal_tables`](Self::nodal_tables) without the outputs (`time`, every state and
@@ -187,7 +207,13 @@ impl SolutionLayout {
         &self,
         t: &Trajectory<'_>,
     ) -> Result<BTreeMap<String, Vec<Vec<f64>>>, ProblemError> {
-        self.series(&node_times(t), t.x, t.u)
+        self.series(&node_times(t), t.x, &self.holds.profile(t.u, t.s).starts)
+    }
+
+    /// Every control of a nodal trajectory by name at the end of each segment, as
+    /// [`Solution::control_ends`].
+    pub fn nodal_control_ends(&self, t: &Trajectory<'_>) -> BTreeMap<String, Vec<Vec<f64>>> {
+        self.control_series(&self.holds.profile(t.u, t.s).ends)
     }
 }
 

@@ -113,6 +113,9 @@ pub struct Control {
     pub foh: bool,
     /// Guess, N × size row-major (`None`: zero, clamped into the bounds).
     pub guess: Option<Vec<f64>>,
+    /// Time-scaled: the solver works on `w = s·u` ([`Dynamics::time_scaled`](crate::Dynamics::time_scaled)).
+    /// Bounds, guess and solution stay in the physical `u`. Default false.
+    pub time_scaled: bool,
 }
 
 impl Control {
@@ -124,6 +127,7 @@ impl Control {
             max: vec![f64::INFINITY; size],
             foh: true,
             guess: None,
+            time_scaled: false,
         }
     }
 
@@ -140,6 +144,12 @@ impl Control {
     /// With bounds.
     pub fn bounds(mut self, min: &[f64], max: &[f64]) -> Self {
         (self.min, self.max) = (min.to_vec(), max.to_vec());
+        self
+    }
+
+    /// Time-scaled ([`Control::time_scaled`](Control#structfield.time_scaled)).
+    pub fn with_time_scaling(mut self) -> Self {
+        self.time_scaled = true;
         self
     }
 

@@ -1,8 +1,11 @@
 //! The seed tutorial's 7-DOF pick-and-place as the solver sees it: the task is
 //! `armature_arm::fixtures::pick_and_place` (the one formulation of the repo, also behind
-//! `armature demo`), planned and compiled there; this module hands its [`Ocp`] and guess to
-//! the solver-level tests, benches and examples, and checks a result independently (the
-//! chain's own FK on a dense re-integration, the seed's collision model).
+//! `armature demo`) stated as the tutorial states it — 2 nodes per segment, 10 RK4 steps
+//! each, the torques themselves as the controls ([`tutorial`]; the task's own defaults are
+//! 3 nodes per segment and time-scaled torques) — planned and compiled there; this module
+//! hands its [`Ocp`] and guess to the solver-level tests, benches and examples, and checks a
+//! result independently (the chain's own FK on a dense re-integration, the seed's collision
+//! model).
 
 #![allow(dead_code, unreachable_pub)]
 
@@ -49,15 +52,19 @@ pub struct Variant {
     /// With `collision`: the clearances only as their CTCS integral and at the nodes, without
     /// their peak rows between the nodes.
     pub without_clearance_peaks: bool,
+    /// The task's own defaults (3 nodes per segment, time-scaled torques) instead of the
+    /// tutorial's statement.
+    pub task_defaults: bool,
 }
 
 /// The seed problem in the given variant.
 pub fn build_with(variant: Variant) -> Seed {
-    let mut task = if variant.collision {
+    let task = if variant.collision {
         fixtures::pick_and_place_collision()
     } else {
         fixtures::pick_and_place()
     };
+    let mut task = if variant.task_defaults { task } else { tutorial(task) };
     task.velocity_limit_peaks = variant.interval_bounds;
     if let (Some(c), true) = (&mut task.collision, variant.without_clearance_peaks) {
         c.between_nodes_activation = None;
@@ -67,6 +74,15 @@ pub fn build_with(variant: Variant) -> Seed {
     let (x, u, s) = (x.to_vec(), u.to_vec(), s.to_vec());
     let ocp = compiled.ptr().ocp().clone();
     Seed { arm: task.chain.clone(), task, ocp, x, u, s }
+}
+
+/// `task` as the tutorial states it: 2 nodes per segment ([`NODES`]), 10 RK4 steps each,
+/// plain torques.
+pub fn tutorial(task: ArmTask) -> ArmTask {
+    let mut task = task.resegmented(2).expect("the seed's waypoints are evenly spaced");
+    task.settings.discretization.substeps = 10;
+    task.time_scaled_torque = false;
+    task
 }
 
 /// Name of the parameter holding waypoint `w`'s position.
