@@ -480,8 +480,8 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
 
 /// When a later start is kept, the result is that start's through and through: the seed
 /// example with three starts keeps the one whose path retimes fastest, a later one
-/// (measured: the third, 1.4 × the guess's timing, retimed 1.1109 s against the first's
-/// 1.1128 s), and the 3D view's iterates are its own, not the first start's.
+/// (measured: the third, 1.4 × the guess's timing, retimed 1.0721 s against the first's
+/// 1.0750 s), and the 3D view's iterates are its own, not the first start's.
 #[test]
 fn a_later_start_kept_brings_its_own_iterates() {
     let text = format!(
@@ -533,8 +533,8 @@ fn the_documented_task_format_solves() {
 
 /// `[nodes] refine = 2`: the demo task solved on its nodes, then again from that solution
 /// with every segment split in two. The result is the refined grid's (31 nodes), converged
-/// within the limits at a lower final time than the one stage (measured 1.097 s against
-/// 1.124 s), its history both
+/// within the limits at a lower final time than the one stage (measured 1.050 s against
+/// 1.088 s), its history both
 /// stages'; a bad factor is located at its key.
 #[test]
 fn a_refined_task_solves_twice_and_ends_faster() {

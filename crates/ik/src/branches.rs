@@ -1,6 +1,6 @@
 //! Branch search: the IK solution at every node chosen so that the joint path, over all
-//! keyframes together, travels least — no jumps between IK branches where a continuous path
-//! exists.
+//! keyframes together, takes least time under the velocity limits — no jumps between IK
+//! branches where a continuous path exists.
 
 use armature_kinematics::Chain;
 use rand::{Rng, SeedableRng};
@@ -31,11 +31,28 @@ pub struct BranchSettings {
     pub unconverged_cost: f64,
     /// Candidates closer than this (rad or m, largest joint difference) are one. Default 1e-3.
     pub distinct: f64,
+    /// The share of a path's cost that its node-to-node steps carry, in [0, 1]; the rest is
+    /// the travel from keyframe to keyframe. Default 0.25.
+    ///
+    /// A trajectory optimizer is free to move the joints between the keyframes as it likes
+    /// (the nodes between them come from a straight line in task space), so the time a
+    /// keyframe segment needs is its keyframes' largest joint change, not the sum of its node
+    /// steps' largest changes, which charges a path for zigzags the optimizer removes and,
+    /// on a redundant arm, can prefer a configuration at a keyframe that moves more joints
+    /// farther. The steps keep a share, so a path with a jump between keyframes still costs
+    /// more than one without. 1 is the steps alone.
+    pub step_share: f64,
 }
 
 impl Default for BranchSettings {
     fn default() -> Self {
-        BranchSettings { beam: 8, samples: 16, unconverged_cost: 10.0, distinct: 1e-3 }
+        BranchSettings {
+            beam: 8,
+            samples: 16,
+            unconverged_cost: 10.0,
+            distinct: 1e-3,
+            step_share: 0.25,
+        }
     }
 }
 
@@ -47,6 +64,8 @@ struct Candidate {
     cost: f64,
     /// That path's candidate at the previous node.
     parent: usize,
+    /// That path's configuration at its last keyframe (this one's, at a keyframe).
+    anchor: Vec<f64>,
 }
 
 /// The travel cost of a step: `max_i w_i |a_i − b_i|` (with `w` the inverse velocity limits,
@@ -58,9 +77,12 @@ fn travel(a: &[f64], b: &[f64], w: &[f64]) -> f64 {
 /// IK at every node of the interpolated keyframes (as [`crate::interpolate_targets`]), by a
 /// beam search over IK branches: each node's candidates are the solves warm-started from the
 /// previous node's candidates, and at keyframes (or where no warm start converges) also
-/// from `search.samples` random in-limit configurations. A path's cost is the sum of its steps'
-/// travel (the `weights`-weighted largest joint change) plus `node_cost(k, q)` at each node
-/// plus [`BranchSettings::unconverged_cost`] per unconverged node; each node keeps the
+/// from `search.samples` random in-limit configurations. A path's cost is its travel (the
+/// `weights`-weighted largest joint change: with `weights` the inverse velocity limits, the
+/// least time a move takes) from keyframe to keyframe, and a share
+/// ([`BranchSettings::step_share`]) of its steps' travel from node to node, plus
+/// `node_cost(k, q)` at each node plus [`BranchSettings::unconverged_cost`] per unconverged
+/// node; each node keeps the
 /// `search.beam` cheapest distinct candidates, and the cheapest path through the last node
 /// is returned. Where that path's IK failed at a node between keyframes, the node takes the
 /// joint interpolation of its converged neighbours instead.
@@ -71,7 +93,7 @@ fn travel(a: &[f64], b: &[f64], w: &[f64]) -> f64 {
 ///
 /// # Errors
 /// As [`crate::interpolate_targets`] and [`solve`]; [`IkError::BadSeed`] for `weights` of
-/// the wrong length or not finite and non-negative.
+/// the wrong length or not finite and non-negative, or a `step_share` outside [0, 1].
 ///
 /// # Example
 /// ```
@@ -108,6 +130,12 @@ pub fn ik_branch_search(
             weights
         )));
     }
+    if !(0.0..=1.0).contains(&search.step_share) {
+        return Err(IkError::BadSeed(format!(
+            "branch search: step_share must lie in [0, 1], got {}",
+            search.step_share
+        )));
+    }
     let targets = crate::interpolate_targets(keyframes)?;
     let is_keyframe = |k: usize| keyframes.iter().any(|f| f.node == k);
     let warm = IkSettings { restarts: 0, ..settings.clone() };
@@ -136,7 +164,8 @@ pub fn ik_branch_search(
             found.extend(sampled(chain, target, &warm, search.samples, settings.rng_seed, k)?);
         }
         let previous = if k == 0 { None } else { Some(&layers[k - 1][..]) };
-        layers.push(best_paths(found, previous, k, search, weights, node_cost));
+        let node = (k, is_keyframe(k));
+        layers.push(best_paths(found, previous, node, search, weights, node_cost));
     }
     let keyframe: Vec<bool> = (0..targets.len()).map(is_keyframe).collect();
     Ok(backtrack(&layers, &keyframe))
@@ -167,16 +196,21 @@ fn sampled(
     Ok(solved.into_iter().filter(|r| r.converged).collect())
 }
 
-/// Each found configuration with its cheapest path from the previous node's candidates; the
-/// `search.beam` cheapest distinct ones.
+/// Each found configuration at node `k` (a keyframe or not) with its cheapest path from the
+/// previous node's candidates; the `search.beam` cheapest distinct ones.
 fn best_paths(
     found: Vec<IkResult>,
     previous: Option<&[Candidate]>,
-    k: usize,
+    (k, keyframe): (usize, bool),
     search: &BranchSettings,
     weights: &[f64],
     node_cost: &mut dyn FnMut(usize, &[f64]) -> f64,
 ) -> Vec<Candidate> {
+    let share = search.step_share;
+    let step_cost = |p: &Candidate, q: &[f64]| {
+        let segment = if keyframe { travel(&p.anchor, q, weights) } else { 0.0 };
+        p.cost + share * travel(&p.result.q, q, weights) + (1.0 - share) * segment
+    };
     let mut all: Vec<Candidate> = found
         .into_iter()
         .map(|result| {
@@ -185,10 +219,14 @@ fn best_paths(
             let (cost, parent) = previous.map_or((0.0, 0), |prev| {
                 prev.iter()
                     .enumerate()
-                    .map(|(i, p)| (p.cost + travel(&p.result.q, &result.q, weights), i))
+                    .map(|(i, p)| (step_cost(p, &result.q), i))
                     .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
             });
-            Candidate { cost: cost + own, parent, result }
+            let anchor = match previous {
+                Some(prev) if !keyframe => prev[parent].anchor.clone(),
+                _ => result.q.clone(),
+            };
+            Candidate { cost: cost + own, parent, result, anchor }
         })
         .collect();
     all.sort_by(|a, b| a.cost.total_cmp(&b.cost));

@@ -118,7 +118,8 @@ pub struct IntervalConstraint {
     /// rows — and its rows come back at the first reference where a peak comes within the
     /// distance. Choose it above what one step can move `g`: rows far from their bound are
     /// slack in every subproblem, so dropping them does not change the steps. For
-    /// clearances, a few centimetres (the seed's collision variant: 2 cm, same iterates).
+    /// clearances, a few centimetres (the seed's collision variant: 2 cm; its walk keeps
+    /// the same steps as with every row in for six iterations, then parts from it).
     pub activation: Option<f64>,
     /// Where the rows sit on each segment: at the peak of each output, or at every point of
     /// the integration grid.
