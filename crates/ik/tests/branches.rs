@@ -11,19 +11,38 @@ use nalgebra::Vector3;
 
 const DOWN: [f64; 4] = [std::f64::consts::FRAC_1_SQRT_2, 0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0];
 
+/// Keyframes `spacing` nodes apart: arm7's home (the identity orientation), then `down`,
+/// gripper down.
+fn from_home(spacing: usize, down: &[[f64; 3]]) -> Vec<Keyframe> {
+    let home = Keyframe {
+        node: 0,
+        position: [0.69, 0.0, 0.34],
+        quaternion_wxyz: Some([1.0, 0.0, 0.0, 0.0]),
+    };
+    let at = |(i, &position): (usize, &[f64; 3])| Keyframe {
+        node: (i + 1) * spacing,
+        position,
+        quaternion_wxyz: Some(DOWN),
+    };
+    std::iter::once(home).chain(down.iter().enumerate().map(at)).collect()
+}
+
 /// A pick-and-place on arm7 (the suite's arm7-06) on which node-by-node IK from the previous
 /// node jumps branches: its warm start fails at the grasp, and a random restart lands on
 /// another branch.
 fn jumping_pick_and_place() -> Vec<Keyframe> {
-    let k = |node, position, q| Keyframe { node, position, quaternion_wxyz: Some(q) };
-    vec![
-        k(0, [0.69, 0.0, 0.34], [1.0, 0.0, 0.0, 0.0]),
-        k(2, [0.3102828815569065, -0.3202638470681547, 0.15135080573911563], DOWN),
-        k(4, [0.3102828815569065, -0.3202638470681547, 0.04147667176510572], DOWN),
-        k(6, [0.3102828815569065, -0.3202638470681547, 0.15135080573911563], DOWN),
-        k(8, [0.3147912461474512, 0.2337521192530075, 0.1725942553399504], DOWN),
-        k(10, [0.3147912461474512, 0.2337521192530075, 0.06272012136594049], DOWN),
-    ]
+    let (pick, place) =
+        ([0.3102828815569065, -0.3202638470681547], [0.3147912461474512, 0.2337521192530075]);
+    from_home(
+        2,
+        &[
+            [pick[0], pick[1], 0.15135080573911563],
+            [pick[0], pick[1], 0.04147667176510572],
+            [pick[0], pick[1], 0.15135080573911563],
+            [place[0], place[1], 0.1725942553399504],
+            [place[0], place[1], 0.06272012136594049],
+        ],
+    )
 }
 
 /// The branch search with unit weights and no cost per node.
@@ -88,15 +107,16 @@ fn a_pick_and_place_that_node_by_node_ik_jumps_gets_a_continuous_path() {
 /// The seed tutorial's waypoints (home, pre-grasp, grasp, lift, pre-place, place), 3 node
 /// intervals apart.
 fn seed_pick_and_place() -> Vec<Keyframe> {
-    let k = |node, position, q| Keyframe { node, position, quaternion_wxyz: Some(q) };
-    vec![
-        k(0, [0.69, 0.0, 0.34], [1.0, 0.0, 0.0, 0.0]),
-        k(3, [0.35, -0.25, 0.2], DOWN),
-        k(6, [0.35, -0.25, 0.05], DOWN),
-        k(9, [0.35, -0.25, 0.2], DOWN),
-        k(12, [0.35, 0.25, 0.2], DOWN),
-        k(15, [0.35, 0.25, 0.05], DOWN),
-    ]
+    from_home(
+        3,
+        &[
+            [0.35, -0.25, 0.2],
+            [0.35, -0.25, 0.05],
+            [0.35, -0.25, 0.2],
+            [0.35, 0.25, 0.2],
+            [0.35, 0.25, 0.05],
+        ],
+    )
 }
 
 /// Σ over consecutive keyframes of their largest joint change: the least time the path's
