@@ -154,23 +154,23 @@ fn keyframe_segments_are_charged_their_own_travel_not_their_steps() {
     assert!(travel(&steps) <= travel(&shared) + 1e-12);
 }
 
+/// The error of the branch search on arm7's jumping pick-and-place with `search` and
+/// `weights`, which must be refused.
+fn refusal(search: &BranchSettings, weights: &[f64]) -> IkError {
+    let seed = [0.0; 7];
+    let keyframes = jumping_pick_and_place();
+    let settings = IkSettings::default();
+    let start = Start::Seed(&seed);
+    ik_branch_search(&robots::arm7(), &keyframes, start, &settings, search, weights, &mut |_, _| {
+        0.0
+    })
+    .unwrap_err()
+}
+
 #[test]
 fn a_step_share_outside_the_unit_interval_is_refused() {
-    let arm = robots::arm7();
-    let keyframes = jumping_pick_and_place();
-    let seed = [0.0; 7];
     for step_share in [-0.1, 1.5, f64::NAN] {
-        let search = BranchSettings { step_share, ..BranchSettings::default() };
-        let e = ik_branch_search(
-            &arm,
-            &keyframes,
-            Start::Seed(&seed),
-            &IkSettings::default(),
-            &search,
-            &[1.0; 7],
-            &mut |_, _| 0.0,
-        )
-        .unwrap_err();
+        let e = refusal(&BranchSettings { step_share, ..BranchSettings::default() }, &[1.0; 7]);
         assert!(matches!(&e, IkError::BadSeed(m) if m.contains("step_share")), "{e}");
     }
 }
@@ -239,21 +239,8 @@ fn an_unreachable_node_between_keyframes_takes_the_interpolation_of_its_neighbou
 
 #[test]
 fn weights_of_the_wrong_length_or_sign_are_refused() {
-    let arm = robots::arm7();
-    let keyframes = jumping_pick_and_place();
-    let search = BranchSettings::default();
-    let seed = [0.0; 7];
     for weights in [vec![1.0; 6], vec![-1.0; 7], vec![f64::NAN; 7]] {
-        let e = ik_branch_search(
-            &arm,
-            &keyframes,
-            Start::Seed(&seed),
-            &IkSettings::default(),
-            &search,
-            &weights,
-            &mut |_, _| 0.0,
-        )
-        .unwrap_err();
+        let e = refusal(&BranchSettings::default(), &weights);
         assert!(matches!(e, IkError::BadSeed(ref m) if m.contains("weights")), "{e}");
     }
 }

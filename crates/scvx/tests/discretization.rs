@@ -640,6 +640,25 @@ fn segment_hessian_with_a_time_scaled_control_matches_differences_of_the_jacobia
     segment_hessian_matches_differences(segment_case_of(nonlinear_scaled()));
 }
 
+/// The largest difference between the symmetric `nz × nz` Hessian `h` and central
+/// differences (step 1e-5) of `gradient(col, by)`, the gradient with input `col` shifted by
+/// `by`, relative to the differences' largest entry; asserts `h`'s symmetry on the way.
+fn against_differences(h: &[f64], nz: usize, gradient: impl Fn(usize, f64) -> Vec<f64>) -> f64 {
+    let eps = 1e-5;
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    for col in 0..nz {
+        let (gp, gm) = (gradient(col, eps), gradient(col, -eps));
+        for r in 0..nz {
+            let fd = (gp[r] - gm[r]) / (2.0 * eps);
+            worst = worst.max((h[col * nz + r] - fd).abs());
+            scale = scale.max(fd.abs());
+            let asymmetry = (h[col * nz + r] - h[r * nz + col]).abs();
+            assert!(asymmetry <= 1e-12 * (1.0 + h[col * nz + r].abs()), "({col}, {r})");
+        }
+    }
+    worst / scale
+}
+
 fn segment_hessian_matches_differences(case: SegmentCase) {
     let SegmentCase { d, x, u, s, y } = case;
     let (n, nodes) = (3, 4);
@@ -651,25 +670,11 @@ fn segment_hessian_matches_differences(case: SegmentCase) {
         let mut h = vec![0.0; nz * nz];
         let mut ws = d.segment_hessian_workspace();
         d.segment_hessian(&out, seg, &u, s[seg], &y, &mut ws, &mut h).unwrap();
-        let eps = 1e-5;
-        let (mut worst, mut scale) = (0.0f64, 0.0f64);
-        for c in 0..nz {
-            let shifted = |sign: f64| {
-                let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, c), sign * eps);
-                segment_jacobian(&d, &xs, &us, &ss, seg, sub)
-            };
-            let (jp, jm) = (shifted(1.0), shifted(-1.0));
-            for r in 0..nz {
-                let fd: f64 = (0..n).map(|i| y[i] * (jp[i * nz + r] - jm[i * nz + r])).sum::<f64>()
-                    / (2.0 * eps);
-                worst = worst.max((h[c * nz + r] - fd).abs());
-                scale = scale.max(fd.abs());
-                assert!(
-                    (h[c * nz + r] - h[r * nz + c]).abs() <= 1e-12 * (1.0 + h[c * nz + r].abs())
-                );
-            }
-        }
-        worst / scale
+        against_differences(&h, nz, |col, by| {
+            let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, col), by);
+            let j = segment_jacobian(&d, &xs, &us, &ss, seg, sub);
+            (0..nz).map(|r| (0..n).map(|i| y[i] * j[i * nz + r]).sum()).collect()
+        })
     };
     for seg in 0..nodes - 1 {
         let (coarse, fine) = (error_at(4, seg), error_at(40, seg));
@@ -746,25 +751,10 @@ fn segment_hessian_along_matches_differences(case: SegmentCase) {
         let mut h = vec![0.0; nz * nz];
         let mut ws = d.segment_hessian_workspace();
         d.segment_hessian_along(&out, seg, &u, s[seg], &y, &c, &mut ws, &mut h).unwrap();
-        let eps = 1e-5;
-        let (mut worst, mut scale) = (0.0f64, 0.0f64);
-        for col in 0..nz {
-            let shifted = |sign: f64| {
-                let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, col), sign * eps);
-                grid_gradient(&d, (&xs, &us, &ss), (seg, sub), &with_y)
-            };
-            let (gp, gm) = (shifted(1.0), shifted(-1.0));
-            for r in 0..nz {
-                let fd = (gp[r] - gm[r]) / (2.0 * eps);
-                worst = worst.max((h[col * nz + r] - fd).abs());
-                scale = scale.max(fd.abs());
-                assert!(
-                    (h[col * nz + r] - h[r * nz + col]).abs()
-                        <= 1e-12 * (1.0 + h[col * nz + r].abs())
-                );
-            }
-        }
-        worst / scale
+        against_differences(&h, nz, |col, by| {
+            let (xs, us, ss) = shift_segment_input((&x, &u, &s), (n, seg, col), by);
+            grid_gradient(&d, (&xs, &us, &ss), (seg, sub), &with_y)
+        })
     };
     for seg in 0..nodes - 1 {
         let (coarse, mid, fine) = (error_at(4, seg), error_at(7, seg), error_at(40, seg));

@@ -62,8 +62,7 @@ impl Dynamics {
                     let FEval { ws: fws, input, fval, .. } = &mut ws.f;
                     input[..n].copy_from_slice(x);
                     for i in 0..mu {
-                        let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
-                        input[n + i] = self.physical_control(i, w, s[seg]);
+                        input[n + i] = self.held_control(i, (uk, uk1), beta, s[seg]);
                     }
                     self.f.eval(input, fws, fval, None)?;
                     for &(row, first, end) in &self.gates {
@@ -99,8 +98,7 @@ impl Dynamics {
                 states.extend_from_slice(&x);
                 segment.push(seg);
                 for i in 0..mu {
-                    let w = if self.foh[i] { uk[i] + b1 * (uk1[i] - uk[i]) } else { uk[i] };
-                    controls.push(self.physical_control(i, w, s[seg]));
+                    controls.push(self.held_control(i, (uk, uk1), b1, s[seg]));
                 }
             }
         }

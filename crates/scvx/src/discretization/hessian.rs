@@ -314,8 +314,7 @@ impl Dynamics {
         }
         ws.input[..n].copy_from_slice(&v[..n]);
         for i in 0..mu {
-            let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
-            ws.input[n + i] = self.physical_control(i, w, s);
+            ws.input[n + i] = self.held_control(i, (uk, uk1), beta, s);
         }
         let SegmentHessianWorkspace { hws, input, values, jac, hess, weights, g, .. } = ws;
         self.f.eval_hessian(input, weights, hws, values, Some(jac), hess)?;

@@ -144,8 +144,7 @@ impl Dynamics {
         let FEval { ws: fws, input, fval, jac, needed } = fe;
         input[..n].copy_from_slice(&v[..n]);
         for i in 0..mu {
-            let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
-            input[n + i] = self.physical_control(i, w, s);
+            input[n + i] = self.held_control(i, (uk, uk1), beta, s);
         }
         if !full {
             // The state alone: no Jacobian, no variational equations.

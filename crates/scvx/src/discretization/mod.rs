@@ -333,6 +333,15 @@ impl Dynamics {
         if self.is_time_scaled(i) { w / s } else { w }
     }
 
+    /// The control `u` the dynamics see at fraction `beta` of a segment of dilation `s` whose
+    /// nodes hold the variables `uk` and `uk1` (entry `i`): held (first- or zero-order), then
+    /// [`physical_control`](Self::physical_control).
+    #[inline]
+    fn held_control(&self, i: usize, (uk, uk1): (&[f64], &[f64]), beta: f64, s: f64) -> f64 {
+        let w = if self.foh[i] { uk[i] + beta * (uk1[i] - uk[i]) } else { uk[i] };
+        self.physical_control(i, w, s)
+    }
+
     /// Restricts state row `row`'s dynamics to segments `first..end` (a CTCS interval; the
     /// segment index gates the integrand as in OpenSCvx). Outside, the row stays constant.
     ///
