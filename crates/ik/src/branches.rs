@@ -7,6 +7,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
+use armature_lie::SO3;
+
 use crate::{IkError, IkResult, IkSettings, IkTrajectory, IkWorkspace, Keyframe, Target, solve};
 
 /// Where the joint path starts.
@@ -76,7 +78,8 @@ fn travel(a: &[f64], b: &[f64], w: &[f64]) -> f64 {
 
 /// IK at every node of the interpolated keyframes (as [`crate::interpolate_targets`]), by a
 /// beam search over IK branches: each node's candidates are the solves warm-started from the
-/// previous node's candidates, and at keyframes (or where no warm start converges) also
+/// previous node's candidates (followed by continuation through intermediate targets where
+/// the warm start stalls), and at keyframes (or where no warm start converges) also
 /// from `search.samples` random in-limit configurations. A path's cost is its travel (the
 /// `weights`-weighted largest joint change: with `weights` the inverse velocity limits, the
 /// least time a move takes) from keyframe to keyframe, and a share
@@ -151,7 +154,14 @@ pub fn ik_branch_search(
             (0, Start::Seed(q)) => found.push(solve(chain, target, q, &warm, &mut ws)?),
             _ => {
                 for c in &layers[k - 1] {
-                    found.push(solve(chain, target, &c.result.q, &warm, &mut ws)?);
+                    let from = &targets[k - 1];
+                    found.push(continue_branch(
+                        chain,
+                        (from, target),
+                        &c.result.q,
+                        &warm,
+                        &mut ws,
+                    )?);
                 }
             }
         }
@@ -169,6 +179,54 @@ pub fn ik_branch_search(
     }
     let keyframe: Vec<bool> = (0..targets.len()).map(is_keyframe).collect();
     Ok(backtrack(&layers, &keyframe))
+}
+
+/// Task-space steps into which [`continue_branch`] divides a node step that a warm start
+/// does not converge across.
+const CONTINUATION_STEPS: usize = 4;
+
+/// The IK of node target `to` warm-started from the previous node's configuration `q` (the
+/// IK of `from`). Where that solve does not converge, the branch is followed by continuation:
+/// through `CONTINUATION_STEPS` targets on the way from `from` to `to` (positions on the
+/// line, orientations on the geodesic), each solved from the last without the stall rule and
+/// with four times the iterations. A warm start that stalls is often a branch whose damped
+/// steps are short at first — near a singular or limit-bound configuration — not a branch
+/// that ends: on the suite's arm7-ball-21 the branch through the pick was lost this way at
+/// the first node after its pre-grasp waypoint (at three and at four nodes per segment), and
+/// the path jumped 2–3 rad to another one.
+fn continue_branch(
+    chain: &Chain,
+    (from, to): (&Target, &Target),
+    q: &[f64],
+    warm: &IkSettings,
+    ws: &mut IkWorkspace,
+) -> Result<IkResult, IkError> {
+    let first = solve(chain, to, q, warm, ws)?;
+    if first.converged {
+        return Ok(first);
+    }
+    let patient = IkSettings {
+        stall_ratio: 0.0,
+        max_iterations: warm.max_iterations.saturating_mul(4),
+        ..warm.clone()
+    };
+    let mut at = q.to_vec();
+    let mut last = None;
+    for i in 1..=CONTINUATION_STEPS {
+        let s = i as f64 / CONTINUATION_STEPS as f64;
+        let orientation = match (from.orientation, to.orientation) {
+            (Some(a), Some(b)) => Some(SO3::slerp(&a, &b, s)),
+            (_, o) => o,
+        };
+        let step = Target { position: from.position.lerp(&to.position, s), orientation };
+        let r = solve(chain, &step, &at, &patient, ws)?;
+        if !r.converged {
+            return Ok(first);
+        }
+        at.clone_from(&r.q);
+        last = Some(r);
+    }
+    Ok(last.unwrap_or(first))
 }
 
 /// IK of `target` from `count` random in-limit configurations (∩ [−π, π]), in parallel; the

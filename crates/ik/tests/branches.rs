@@ -104,6 +104,51 @@ fn a_pick_and_place_that_node_by_node_ik_jumps_gets_a_continuous_path() {
     assert!(again.all_converged() && again.max_joint_step < 1.0, "{}", again.max_joint_step);
 }
 
+/// A pick-and-place on arm7 (the suite's arm7-ball-21, its ball left out) on which the
+/// branch through the pick crawls: from its pre-grasp configuration the warm start of the
+/// next node stalls 3 mm short, and without continuation the path left that branch right
+/// after the pre-grasp waypoint, by a 1.8 rad step (at four nodes per segment, 2.9 rad).
+fn crawling_pick_and_place(spacing: usize) -> Vec<Keyframe> {
+    let (pick, place) =
+        ([0.341867743334294, -0.34458597184118955], [0.4370404470746707, 0.259624225489386]);
+    from_home(
+        spacing,
+        &[
+            [pick[0], pick[1], 0.2238126458704332],
+            [pick[0], pick[1], 0.07627329722459306],
+            [pick[0], pick[1], 0.2238126458704332],
+            [place[0], place[1], 0.20836580365207144],
+            [place[0], place[1], 0.060826455006231295],
+        ],
+    )
+}
+
+/// A branch whose warm starts stall is followed by continuation, not left by a jump.
+#[test]
+fn a_branch_whose_warm_start_stalls_is_followed_not_left() {
+    let arm = robots::arm7();
+    // As the arm crate's guess: 8 restarts and samples, travel in seconds at 3 rad/s.
+    let settings = IkSettings { restarts: 8, ..IkSettings::default() };
+    let weights = [1.0 / 3.0; 7];
+    for spacing in [3, 4] {
+        let keyframes = crawling_pick_and_place(spacing);
+        let targets = armature_ik::interpolate_targets(&keyframes[..1]).unwrap();
+        let mut ws = armature_ik::IkWorkspace::new(&arm);
+        let home = armature_ik::solve(&arm, &targets[0], &[0.0; 7], &settings, &mut ws).unwrap();
+        let search = BranchSettings { samples: 8, ..BranchSettings::default() };
+        let start = Start::Fixed(&home.q);
+        let ik =
+            ik_branch_search(&arm, &keyframes, start, &settings, &search, &weights, &mut |_, _| {
+                0.0
+            })
+            .unwrap();
+        assert!(ik.all_converged(), "{spacing} per segment");
+        assert!(ik.max_joint_step < 1.0, "{spacing} per segment: {}", ik.max_joint_step);
+        let (pe, oe) = keyframe_errors(&arm, &ik, &keyframes);
+        assert!(pe < 1e-5 && oe < 1e-5, "{pe} {oe}");
+    }
+}
+
 /// The seed tutorial's waypoints (home, pre-grasp, grasp, lift, pre-place, place), 3 node
 /// intervals apart.
 fn seed_pick_and_place() -> Vec<Keyframe> {
