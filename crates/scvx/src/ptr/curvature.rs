@@ -62,6 +62,8 @@ pub(super) struct CurvatureScratch {
     shares: Vec<f64>,
     /// The interval constraints' peak rows' share.
     pub(super) peaks: super::peak_curvature::PeakCurvatureScratch,
+    /// The peak rows' vertex curvature's.
+    pub(super) envelope: super::peak_envelope::EnvelopeScratch,
 }
 
 impl ExactHessian {
@@ -151,6 +153,7 @@ impl Ptr {
             scratch.dynamics = Some(self.ocp.dynamics.segment_hessian_workspace());
             scratch.segment = vec![0.0; (n + 2 * m + 1).pow(2)];
             scratch.peaks = self.peak_curvature_scratch();
+            scratch.envelope = self.envelope_scratch();
         }
         scratch
     }
@@ -164,6 +167,7 @@ impl Ptr {
         self.dynamics_curvature(st);
         self.nodal_curvature(st);
         self.peak_curvature(st);
+        self.peak_envelope_curvature(st);
     }
 
     /// Each segment's `yᵀ∇²x_prop` (its dynamics rows' duals) into its element block. A

@@ -150,16 +150,49 @@ fn weighed(first: usize, w: &Stencil, g: &impl Fn(usize) -> f64) -> f64 {
 /// them), plus a bound on what the parabola misses of a cubic (`cubic_margin`); `ĝ = Σ w_i
 /// g_i`.
 pub(super) fn peak_of(pts: usize, g: impl Fn(usize) -> f64) -> (f64, usize, Stencil) {
-    let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
     if pts < 3 {
+        let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
         return (g(best), best, [1.0, 0.0, 0.0, 0.0, 0.0]);
     }
-    let c = best.clamp(1, pts - 2);
+    let v = vertex(pts, None, &g);
+    bounded_parabola(pts, v.centre, v.theta, &g)
+}
+
+/// Where a peak row's parabola is at its largest: its centre `c` (it runs through
+/// `c − 1, c, c + 1`), the offset `θ` from `c` in grid steps, and the parabola's second
+/// difference `g(c−1) − 2g(c) + g(c+1)`. For the segment's peak (`at: None`) the parabola is
+/// centred on the largest grid value and θ ranges over [−1, 1]; for grid point `at = j` it is
+/// centred on j (on its inner neighbour at the segment's ends) and θ ranges over j's cell.
+/// θ is the vertex where the parabola is concave, clamped to its range, else the point
+/// itself. At least three points.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Vertex {
+    pub(super) centre: usize,
+    pub(super) theta: f64,
+    pub(super) second_difference: f64,
+    /// Whether θ is the parabola's vertex strictly inside its range (not clamped, not a
+    /// convex parabola's point): there the peak's value is smooth in the three values.
+    pub(super) interior: bool,
+}
+
+/// The [`Vertex`] of the peak of `g` over `0..pts` (`at: None`) or of grid point `at`'s cell.
+pub(super) fn vertex(pts: usize, at: Option<usize>, g: &impl Fn(usize) -> f64) -> Vertex {
+    let (c, lo, hi, own) = match at {
+        None => {
+            let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
+            let c = best.clamp(1, pts - 2);
+            (c, -1.0, 1.0, best as f64 - c as f64)
+        }
+        Some(0) => (1, -1.0, -0.5, -1.0),
+        Some(j) if j + 1 >= pts => (pts - 2, 0.5, 1.0, 1.0),
+        Some(j) => (j, -0.5, 0.5, 0.0),
+    };
     let (gm, g0, gp) = (g(c - 1), g(c), g(c + 1));
     let curv = gm - 2.0 * g0 + gp;
-    let theta =
-        if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(-1.0, 1.0) } else { best as f64 - c as f64 };
-    bounded_parabola(pts, c, theta, &g)
+    let raw = if curv < 0.0 { 0.5 * (gm - gp) / curv } else { f64::NAN };
+    let interior = raw > lo && raw < hi;
+    let theta = if curv < 0.0 { raw.clamp(lo, hi) } else { own };
+    Vertex { centre: c, theta, second_difference: curv, interior }
 }
 
 /// The parabola through `c − 1, c, c + 1` at `θ` plus the cubic margin, as a stencil from two
@@ -190,17 +223,8 @@ pub(super) fn local_peak(pts: usize, j: usize, g: impl Fn(usize) -> f64) -> (f64
     if pts < 3 {
         return (g(j), j, [1.0, 0.0, 0.0, 0.0, 0.0]);
     }
-    // The parabola's centre, and the cell [lo, hi] of point j around it.
-    let (c, lo, hi) = match j {
-        0 => (1, -1.0, -0.5),
-        j if j + 1 >= pts => (pts - 2, 0.5, 1.0),
-        j => (j, -0.5, 0.5),
-    };
-    let (gm, g0, gp) = (g(c - 1), g(c), g(c + 1));
-    let curv = gm - 2.0 * g0 + gp;
-    let own = j as f64 - c as f64;
-    let theta = if curv < 0.0 { (0.5 * (gm - gp) / curv).clamp(lo, hi) } else { own };
-    bounded_parabola(pts, c, theta, &g)
+    let v = vertex(pts, Some(j), &g);
+    bounded_parabola(pts, v.centre, v.theta, &g)
 }
 
 /// Adds to `w` (a stencil from `first`) a bound on what the parabola through `c − 1, c,

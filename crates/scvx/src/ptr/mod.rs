@@ -83,7 +83,8 @@
 //! weight. The default, [`PtrSettings::exact_hessian`], puts the Lagrangian's exact curvature
 //! there instead: the dynamics' by the second-order adjoint, the nodal rows' from the
 //! symbolic graph, and each active peak row's curvature in the states through the grid's
-//! sensitivities (`peak_curvature.rs`).
+//! sensitivities (`peak_curvature.rs`) plus that of its vertex moving between the grid
+//! points (`peak_envelope.rs`).
 //!
 //! A rejected step (or one with a poor ratio) gets one second-order correction
 //! ([`PtrSettings::second_order_correction`], `correction.rs`): the subproblem is re-solved
@@ -246,6 +247,7 @@ mod evaluate;
 mod iterate;
 mod merit;
 mod peak_curvature;
+mod peak_envelope;
 mod psd;
 mod quasi_newton;
 mod report;

@@ -201,7 +201,7 @@ fn add_sandwich(sc: &mut PeakCurvatureScratch, n: usize, dz: usize) {
 
 /// The sensitivities `G = ∂x(t_i)/∂[x_k | u_k | s_k | u_{k+1}]` (`n × (n + 2m + 1)`,
 /// row-major) from a grid point's block `[x, Φ, B⁻, B⁺]`.
-fn sensitivities(grid: &[f64], n: usize, m: usize, g: &mut [f64]) {
+pub(super) fn sensitivities(grid: &[f64], n: usize, m: usize, g: &mut [f64]) {
     let (mc, dz) = (m + 1, n + 2 * m + 1);
     let (phi0, bm0, bp0) = (n, n + n * n, n + n * n + n * mc);
     for r in 0..n {

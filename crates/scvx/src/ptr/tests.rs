@@ -652,3 +652,115 @@ fn inexact_solves_follow_the_last_predicted_decrease() {
     bad.subproblem.inexact = -1.0;
     assert_eq!(bad.validate().unwrap_err().field, "subproblem.inexact");
 }
+
+/// The peak rows' curvature, the vertex's included (`peak_envelope.rs`), is the second
+/// derivative of the rows' peak values: along a direction that leaves the dilations alone
+/// (the flow is then linear in the step), `sᵀ(Σ_e H_e)s` equals `Σ y·(ĝ(z + hs) − 2ĝ(z) +
+/// ĝ(z − hs))/h²` over the rows, each peak recomputed with its vertex free to move. The
+/// accelerations change sign inside the segments, so the velocity (bounded at every grid
+/// point) and the interval constraint peak between grid points; without the vertex's term
+/// the curvature misses a good share of it.
+#[test]
+fn peak_envelope_curvature_is_the_peaks_second_derivative() {
+    use super::{GridAt, Ptr, PtrSettings};
+    let nodes = 4;
+    let g = |p: &Expr, v: &Expr| &(&(v * v) + &(&p.sin() * 0.3)) + &(&(p * v) - 0.25);
+    let mut ocp = double_integrator(nodes, 0.6, [None, None], g, vec![1]);
+    ocp.interval_constraints[0].sampling = crate::Sampling::GridPoints;
+    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
+    let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
+    settings.discretization.substeps = 6;
+    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    let (u0, s0, vp0, _) = ptr.layout();
+    // p, v from the dynamics' own start; accelerations alternating in sign at the nodes.
+    let z: Vec<f64> = (0..vp0)
+        .map(|i| match i {
+            i if i < u0 => 0.0,
+            i if i < s0 => {
+                if (i - u0) % 2 == 0 {
+                    0.9
+                } else {
+                    -0.8
+                }
+            }
+            _ => 1.0,
+        })
+        .collect();
+    let mut st = ptr.iterate();
+    (st.xb, st.ub, st.sb) = (z[..u0].to_vec(), z[u0..s0].to_vec(), z[s0..vp0].to_vec());
+    ptr.linearize(&z, &mut st.dbar).unwrap();
+    // The states at the nodes where the accelerations take them (no defects).
+    let n = 2;
+    for k in 0..nodes - 1 {
+        let next = st.dbar.x_prop[k * n..(k + 1) * n].to_vec();
+        st.xb[(k + 1) * n..(k + 2) * n].copy_from_slice(&next);
+        let z: Vec<f64> = [&st.xb[..], &st.ub[..], &st.sb[..]].concat();
+        ptr.linearize(&z, &mut st.dbar).unwrap();
+    }
+    let z: Vec<f64> = [&st.xb[..], &st.ub[..], &st.sb[..]].concat();
+    ptr.linearize_constraints(&mut st);
+    let pts = st.dbar.grid_points;
+    let stride = ptr.ocp.dynamics.grid_stride();
+    let interior = ptr
+        .peaks
+        .iter()
+        .filter(|p| {
+            let at = |j: usize| match p.of {
+                super::PeakOf::State(r) => p.sign * st.dbar.grid[(p.seg * pts + j) * stride + r],
+                super::PeakOf::Function { .. } => 0.0,
+            };
+            matches!(p.of, super::PeakOf::State(_))
+                && super::evaluate::vertex(pts, p.at, &at).interior
+        })
+        .count();
+    assert!(interior >= 2, "rows whose vertex lies inside their cell: {interior}");
+    let dir: Vec<f64> =
+        (0..vp0).map(|i| if i < s0 { 0.3 * (1.3 * i as f64 + 0.4).cos() } else { 0.0 }).collect();
+    let elements = ptr.elements.clone();
+    let quadratic = |curv: &[Vec<f64>]| -> f64 {
+        elements
+            .iter()
+            .zip(curv)
+            .map(|(el, hb)| {
+                let d = el.cols.len();
+                (0..d)
+                    .flat_map(|a| (0..d).map(move |b| (a, b)))
+                    .map(|(a, b)| dir[el.cols[a]] * hb[a * d + b] * dir[el.cols[b]])
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    // Duals on the velocity bound's rows only (linear in the states: the vertex's motion is
+    // all their curvature), then on every row.
+    for states_only in [true, false] {
+        st.duals.fill(0.0);
+        for (i, p) in ptr.peaks.iter().enumerate() {
+            if !states_only || matches!(p.of, super::PeakOf::State(_)) {
+                st.duals[p.row] = 0.5 + (1.7 * i as f64).sin().abs();
+            }
+        }
+        for h in &mut st.curv.exact {
+            h.fill(0.0);
+        }
+        ptr.peak_curvature(&mut st);
+        let without = quadratic(&st.curv.exact);
+        ptr.exact_curvature(&mut st);
+        let model = quadratic(&st.curv.exact);
+        let duals = st.duals.clone();
+        let mut peaks = |t: f64| -> f64 {
+            let zt: Vec<f64> = z.iter().zip(&dir).map(|(z, d)| z + t * d).collect();
+            let mut d = ptr.output();
+            ptr.linearize(&zt, &mut d).unwrap();
+            let weights = vec![0.0; ptr.buffers.len() + ptr.peaks.len()];
+            ptr.eval_peaks(&d, &mut st.ev, &weights, GridAt::Other);
+            ptr.peaks.iter().map(|p| duals[p.row] * ptr.peak(&d, &st.ev, p).0).sum()
+        };
+        let h = 1e-4;
+        let fd = (peaks(h) - 2.0 * peaks(0.0) + peaks(-h)) / (h * h);
+        assert!(fd.abs() > 1e-2, "a curvature worth checking: {fd}");
+        assert!((model - fd).abs() <= 1e-4 * fd.abs(), "sᵀHs {model} against {fd}");
+        if states_only {
+            assert_eq!(without, 0.0, "no curvature but the vertex's in a bound on a state");
+        }
+    }
+}
