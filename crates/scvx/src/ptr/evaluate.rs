@@ -27,6 +27,9 @@ pub(super) struct NodalEval {
     /// Per peak row: the first grid point of its stencil and its weights, at the last
     /// `fill_peaks`.
     pub(super) stencils: Vec<(usize, Stencil)>,
+    /// Per peak row: where its peak lies, at the last `fill_peaks` (`None` on a grid of
+    /// fewer than three points).
+    pub(super) vertices: Vec<Option<Vertex>>,
     /// `fgrid` holds the interval constraints' values at the reference (`Iterate::dbar`):
     /// set when they are evaluated there, or when the candidate they were evaluated at is
     /// accepted; cleared by an evaluation anywhere else and by a parameter change.
@@ -176,7 +179,11 @@ pub(super) struct Vertex {
 }
 
 /// The [`Vertex`] of the peak of `g` over `0..pts` (`at: None`) or of grid point `at`'s cell.
-pub(super) fn vertex(pts: usize, at: Option<usize>, g: &impl Fn(usize) -> f64) -> Vertex {
+pub(super) fn vertex(
+    pts: usize,
+    at: Option<usize>,
+    g: &(impl Fn(usize) -> f64 + ?Sized),
+) -> Vertex {
     let (c, lo, hi, own) = match at {
         None => {
             let best = (1..pts).fold(0, |b, j| if g(j) > g(b) { j } else { b });
@@ -326,6 +333,7 @@ impl Ptr {
         for (i, p) in self.peaks.iter().enumerate() {
             let (g, first, w) = self.peak(d, ev, p);
             (ev.peak_g[i], ev.stencils[i]) = (g, (first, w));
+            ev.vertices[i] = self.peak_vertex(d, ev, p);
             if let PeakOf::Function { c, .. } = p.of {
                 let k = self.intervals[c].seg0 + p.seg - self.intervals[c].first;
                 ev.segment_peak[k] = ev.segment_peak[k].max(g);
@@ -399,14 +407,20 @@ impl Ptr {
     pub(super) fn stencil_jacobians(&self, d: &Discretization, ev: &mut NodalEval) {
         let pts = d.grid_points;
         ev.fjac_at.fill(false);
-        for (p, &(first, w)) in self.peaks.iter().zip(&ev.stencils) {
+        for ((p, &(first, w)), v) in self.peaks.iter().zip(&ev.stencils).zip(&ev.vertices) {
             if let PeakOf::Function { c, .. } = p.of {
                 if !self.row_active(ev, p) {
                     continue;
                 }
                 let meta = &self.intervals[c];
+                let at = meta.pt0 + (p.seg - meta.first) * pts;
                 for (i, _) in w.iter().enumerate().filter(|(_, w)| **w != 0.0) {
-                    ev.fjac_at[meta.pt0 + (p.seg - meta.first) * pts + first + i] = true;
+                    ev.fjac_at[at + first + i] = true;
+                }
+                // All three of the parabola's points where its vertex moves with them (the
+                // vertex's curvature reads them, `peak_envelope.rs`), a zero weight included.
+                if let Some(v) = v.filter(|v| v.interior) {
+                    ev.fjac_at[at + v.centre - 1..at + v.centre + 2].fill(true);
                 }
             }
         }
@@ -508,20 +522,44 @@ impl Ptr {
     ) -> (f64, usize, Stencil) {
         let pts = d.grid_points;
         // The segment's peak, or the local one at a fixed grid point.
-        let at = |g: &dyn Fn(usize) -> f64| match p.at {
+        self.with_row_values(d, ev, p, |g| match p.at {
             Some(j) => local_peak(pts, j, g),
             None => peak_of(pts, g),
-        };
+        })
+    }
+
+    /// Where the peak of an interval row on `d`'s grid lies ([`Vertex`]; `None` on a grid of
+    /// fewer than three points).
+    pub(super) fn peak_vertex(
+        &self,
+        d: &Discretization,
+        ev: &NodalEval,
+        p: &PeakRow,
+    ) -> Option<Vertex> {
+        let pts = d.grid_points;
+        self.with_row_values(d, ev, p, |g| (pts >= 3).then(|| vertex(pts, p.at, g)))
+    }
+
+    /// `f` of the row's function `j ↦ sign·x_r(t_j) − bound` (a state bound) or `j ↦ g_o(t_j)`
+    /// (an interval constraint, from `ev.fgrid`) over the grid points of the row's segment.
+    fn with_row_values<R>(
+        &self,
+        d: &Discretization,
+        ev: &NodalEval,
+        p: &PeakRow,
+        f: impl FnOnce(&dyn Fn(usize) -> f64) -> R,
+    ) -> R {
+        let pts = d.grid_points;
         match p.of {
             PeakOf::State(r) => {
                 let stride = self.ocp.dynamics.grid_stride();
                 let base = p.seg * pts * stride + r;
-                at(&|j| p.sign * d.grid[base + j * stride] - p.bound)
+                f(&|j| p.sign * d.grid[base + j * stride] - p.bound)
             }
             PeakOf::Function { c, out } => {
                 let meta = &self.intervals[c];
                 let v0 = meta.val0 + (p.seg - meta.first) * pts * meta.nout + out;
-                at(&|j| ev.fgrid[v0 + j * meta.nout])
+                f(&|j| ev.fgrid[v0 + j * meta.nout])
             }
         }
     }

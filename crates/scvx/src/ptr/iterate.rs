@@ -132,6 +132,7 @@ impl Ptr {
                     self.intervals.iter().map(|m| (m.last - m.first) * pts).sum(),
                 ),
                 stencils: vec![(0, [0.0; evaluate::STENCIL]); self.peaks.len()],
+                vertices: vec![None; self.peaks.len()],
                 fgrid_reference: false,
                 segment_peak: vec![0.0; self.intervals.iter().map(|m| m.last - m.first).sum()],
             },

@@ -20,24 +20,16 @@
 //! order where the motion rides a limit between the grid points. Clamped vertices (a cell
 //! edge) and convex parabolas add nothing; nor do the columns through which the segment is
 //! linear (its block does not hold them — a state's own value at the segment's start, for
-//! a bound on that state), nor the peak rows of a whole segment of an interval constraint
-//! (`Sampling::Peak`), whose vertex would need the constraint at every grid point.
+//! a bound on that state). The vertices and the interval constraints' Jacobians are the
+//! reference's, from `fill_peaks` (which evaluates the Jacobians at all three of an interior
+//! vertex's points).
 
-use armature_symbolic::Workspace;
-
-use super::evaluate::vertex;
 use super::peak_curvature::sensitivities;
 use super::*;
 
 /// Scratch of the vertex curvature (allocated once per solve).
 #[derive(Debug, Default)]
 pub(super) struct EnvelopeScratch {
-    /// Per interval constraint, its evaluation workspace.
-    ws: Vec<Workspace>,
-    input: Vec<f64>,
-    /// The three stencil points' values (`nout` each) and Jacobian nonzeros (`nnz` each).
-    values: Vec<f64>,
-    jac: Vec<f64>,
     /// The grid sensitivities `G` at one point (`n × dz`, row-major) and `a` (`dz`).
     g: Vec<f64>,
     a: Vec<f64>,
@@ -47,90 +39,56 @@ impl Ptr {
     /// The vertex curvature's scratch for this problem.
     pub(super) fn envelope_scratch(&self) -> EnvelopeScratch {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let fs = || self.ocp.interval_constraints.iter().map(|c| &c.function);
         let dz = n + 2 * m + 1;
-        EnvelopeScratch {
-            ws: fs().map(|f| f.workspace()).collect(),
-            input: vec![0.0; n + m],
-            values: vec![0.0; 3 * fs().map(|f| f.n_outputs()).max().unwrap_or(0)],
-            jac: vec![0.0; 3 * fs().map(|f| f.jacobian_pattern().nnz()).max().unwrap_or(0)],
-            g: vec![0.0; n * dz],
-            a: vec![0.0; dz],
-        }
+        EnvelopeScratch { g: vec![0.0; n * dz], a: vec![0.0; dz] }
     }
 
     /// Each peak row's vertex curvature `y·a aᵀ / (−p″·g)` at the reference into its
     /// segment's block of `st.curv.exact` (the columns the block holds). Rows with a zero
-    /// dual, switched off, at a segment's peak of an interval constraint (its values would
-    /// be needed at every grid point) or whose evaluation fails add nothing.
+    /// dual, switched off, or whose vertex is not inside its range add nothing.
     pub(super) fn peak_envelope_curvature(&self, st: &mut Iterate) {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let (dz, pts) = (n + 2 * m + 1, st.dbar.grid_points);
-        if pts < 3 {
-            return;
-        }
-        for p in &self.peaks {
+        let dz = n + 2 * m + 1;
+        for (i, p) in self.peaks.iter().enumerate() {
             let y = st.duals[p.row];
             if y <= 0.0 || !y.is_finite() || !self.row_active(&st.ev, p) {
                 continue;
             }
-            let Some(curv) = self.envelope_gradient(p, &st.dbar.grid, pts, &mut st.curv.envelope)
-            else {
+            let Some(v) = st.ev.vertices[i].filter(|v| v.interior) else { continue };
+            let sc = &mut st.curv.envelope;
+            if !self.envelope_gradient(p, v, (&st.dbar, &st.ev), sc) {
                 continue;
-            };
-            let scale = y / -curv;
+            }
+            let scale = y / -v.second_difference;
             let (map, d) = (&self.exact.segments[p.seg], self.elements[p.seg].cols.len());
             let block = &mut st.curv.exact[p.seg];
-            let a = &st.curv.envelope.a;
             for (ia, pa) in map.iter().enumerate().take(dz) {
                 let Some(pa) = pa else { continue };
                 for (ib, pb) in map.iter().enumerate().take(dz) {
                     let Some(pb) = pb else { continue };
-                    block[pa * d + pb] += scale * a[ia] * a[ib];
+                    block[pa * d + pb] += scale * sc.a[ia] * sc.a[ib];
                 }
             }
         }
     }
 
-    /// Peak row `p`'s `a = Σ_i p′_i ∇_z g(t_i)` into `sc.a` and its parabola's second
-    /// difference, where its vertex lies strictly inside its range; `None` otherwise.
+    /// Peak row `p`'s `a = Σ_i p′_i(θ) ∇_z g(t_i)` over its vertex `v`'s three points into
+    /// `sc.a`; whether it is finite.
     fn envelope_gradient(
         &self,
         p: &PeakRow,
-        grid: &[f64],
-        pts: usize,
+        v: Vertex,
+        (d, ev): (&Discretization, &NodalEval),
         sc: &mut EnvelopeScratch,
-    ) -> Option<f64> {
+    ) -> bool {
         let (n, m) = (self.ocp.dynamics.n_x(), self.ocp.dynamics.n_u());
-        let (dz, stride) = (n + 2 * m + 1, self.ocp.dynamics.grid_stride());
-        let at = |j: usize| &grid[(p.seg * pts + j) * stride..(p.seg * pts + j + 1) * stride];
-        let v = match p.of {
-            PeakOf::State(r) => vertex(pts, p.at, &|j| p.sign * at(j)[r] - p.bound),
-            PeakOf::Function { c, out } => {
-                let j = p.at?;
-                let centre = j.clamp(1, pts - 2);
-                let f = &self.ocp.interval_constraints[c].function;
-                let (nout, nnz) = (f.n_outputs(), f.jacobian_pattern().nnz());
-                for k in 0..3 {
-                    sc.input[..n].copy_from_slice(&at(centre - 1 + k)[..n]);
-                    sc.input[n..].fill(0.0);
-                    let vals = &mut sc.values[k * nout..(k + 1) * nout];
-                    let jac = &mut sc.jac[k * nnz..(k + 1) * nnz];
-                    f.eval(&sc.input, &mut sc.ws[c], vals, Some(jac)).ok()?;
-                }
-                let v = vertex(pts, Some(j), &|q| sc.values[(q + 1 - centre) * nout + out]);
-                debug_assert_eq!(v.centre, centre);
-                v
-            }
-        };
-        if !v.interior || !v.second_difference.is_finite() {
-            return None;
-        }
+        let (dz, stride, pts) = (n + 2 * m + 1, self.ocp.dynamics.grid_stride(), d.grid_points);
         let th = v.theta;
-        let dp = [th - 0.5, -2.0 * th, th + 0.5];
         sc.a.fill(0.0);
-        for (k, w) in dp.into_iter().enumerate() {
-            sensitivities(at(v.centre - 1 + k), n, m, &mut sc.g);
+        for (k, w) in [th - 0.5, -2.0 * th, th + 0.5].into_iter().enumerate() {
+            let point = v.centre - 1 + k;
+            let base = (p.seg * pts + point) * stride;
+            sensitivities(&d.grid[base..base + stride], n, m, &mut sc.g);
             match p.of {
                 PeakOf::State(r) => {
                     for (a, g) in sc.a.iter_mut().zip(&sc.g[r * dz..(r + 1) * dz]) {
@@ -138,9 +96,10 @@ impl Ptr {
                     }
                 }
                 PeakOf::Function { c, out } => {
-                    let nnz = self.ocp.interval_constraints[c].function.jacobian_pattern().nnz();
-                    let jac = &sc.jac[k * nnz..(k + 1) * nnz];
-                    for &(r, jq) in &self.intervals[c].deps[out] {
+                    let meta = &self.intervals[c];
+                    let at = (p.seg - meta.first) * pts + point;
+                    let jac = &ev.fjac[meta.jac0 + at * meta.nnz..][..meta.nnz];
+                    for &(r, jq) in &meta.deps[out] {
                         for (a, g) in sc.a.iter_mut().zip(&sc.g[r * dz..(r + 1) * dz]) {
                             *a += w * jac[jq] * g;
                         }
@@ -148,6 +107,6 @@ impl Ptr {
                 }
             }
         }
-        sc.a.iter().all(|x| x.is_finite()).then_some(v.second_difference)
+        sc.a.iter().all(|x| x.is_finite())
     }
 }
