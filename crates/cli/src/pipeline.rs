@@ -94,6 +94,9 @@ pub fn arm_task(
         let per = per_segment.unwrap_or_else(|| dynamics.default_per_segment());
         settings.discretization.substeps = dynamics.default_substeps(per);
     }
+    if !crate::settings::has_key(src.text, &["settings", "lam_tr"]) {
+        settings.lam_tr = dynamics.default_trust_region_weight();
+    }
     let velocity_limit_peaks =
         robot.velocity_limit_peaks.unwrap_or_else(|| dynamics.default_velocity_limit_peaks());
     let time_scaled_torque =

@@ -68,3 +68,18 @@ fn keypoints_by_link_name_and_a_tool_centre_point() {
             .unwrap_err();
     assert!(e.contains("tool"), "{e}");
 }
+
+/// The first trust-region weight is the dynamics model's default (0.25 for the seed's
+/// decoupled model, the solver's own 1 for the rigid-body UR5e) unless `[settings] lam_tr`
+/// gives one.
+#[test]
+fn the_first_trust_region_weight_is_the_models_unless_the_file_gives_one() {
+    let text = include_str!("../../../examples/pick-and-place.toml");
+    assert_eq!(from_file("pp.toml", text).settings.lam_tr, 0.25);
+    let given = text.replacen("[settings]\n", "[settings]\nlam_tr = 1.0\n", 1);
+    assert_ne!(given, text);
+    assert_eq!(from_file("pp.toml", &given).settings.lam_tr, 1.0);
+    let ur5e = include_str!("../../../examples/ur5e-rigid-body.toml");
+    let rigid = from_file("ur5e.toml", ur5e).settings.lam_tr;
+    assert_eq!(rigid, armature_scvx::PtrSettings::default().lam_tr);
+}
