@@ -331,9 +331,8 @@ impl Ptr {
         // Each peak, and each interval constraint's largest peak per segment (its activation).
         ev.segment_peak.fill(f64::NEG_INFINITY);
         for (i, p) in self.peaks.iter().enumerate() {
-            let (g, first, w) = self.peak(d, ev, p);
-            (ev.peak_g[i], ev.stencils[i]) = (g, (first, w));
-            ev.vertices[i] = self.peak_vertex(d, ev, p);
+            let ((g, first, w), vertex) = self.peak_and_vertex(d, ev, p);
+            (ev.peak_g[i], ev.stencils[i], ev.vertices[i]) = (g, (first, w), vertex);
             if let PeakOf::Function { c, .. } = p.of {
                 let k = self.intervals[c].seg0 + p.seg - self.intervals[c].first;
                 ev.segment_peak[k] = ev.segment_peak[k].max(g);
@@ -520,24 +519,29 @@ impl Ptr {
         ev: &NodalEval,
         p: &PeakRow,
     ) -> (f64, usize, Stencil) {
-        let pts = d.grid_points;
-        // The segment's peak, or the local one at a fixed grid point.
-        self.with_row_values(d, ev, p, |g| match p.at {
-            Some(j) => local_peak(pts, j, g),
-            None => peak_of(pts, g),
-        })
+        self.peak_and_vertex(d, ev, p).0
     }
 
-    /// Where the peak of an interval row on `d`'s grid lies ([`Vertex`]; `None` on a grid of
-    /// fewer than three points).
-    pub(super) fn peak_vertex(
+    /// [`peak`](Self::peak) and where it lies ([`Vertex`]; `None` on a grid of fewer than
+    /// three points): the segment's peak, or the local one at a fixed grid point.
+    pub(super) fn peak_and_vertex(
         &self,
         d: &Discretization,
         ev: &NodalEval,
         p: &PeakRow,
-    ) -> Option<Vertex> {
+    ) -> ((f64, usize, Stencil), Option<Vertex>) {
         let pts = d.grid_points;
-        self.with_row_values(d, ev, p, |g| (pts >= 3).then(|| vertex(pts, p.at, g)))
+        self.with_row_values(d, ev, p, |g| {
+            if pts < 3 {
+                let peak = match p.at {
+                    Some(j) => local_peak(pts, j, g),
+                    None => peak_of(pts, g),
+                };
+                return (peak, None);
+            }
+            let v = vertex(pts, p.at, g);
+            (bounded_parabola(pts, v.centre, v.theta, &g), Some(v))
+        })
     }
 
     /// `f` of the row's function `j ↦ sign·x_r(t_j) − bound` (a state bound) or `j ↦ g_o(t_j)`

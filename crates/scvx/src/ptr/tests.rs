@@ -517,6 +517,20 @@ fn correction_shifts_are_second_order_in_the_step() {
     }
 }
 
+/// A double integrator over 4 nodes with the interval constraint
+/// `v² + 0.3·sin p + p·v ≤ 0.25` held at every grid point, `|v| ≤ v_max` (also at every grid
+/// point with `velocity_rows`), the exact curvature on and `substeps` RK4 steps per segment.
+fn curved_interval_problem(v_max: f64, velocity_rows: bool, substeps: usize) -> super::Ptr {
+    let g = |p: &Expr, v: &Expr| &(&(v * v) + &(&p.sin() * 0.3)) + &(&(p * v) - 0.25);
+    let bounds = if velocity_rows { vec![1] } else { vec![] };
+    let mut ocp = double_integrator(4, v_max, [None, None], g, bounds);
+    ocp.interval_constraints[0].sampling = crate::Sampling::GridPoints;
+    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
+    let mut settings = super::PtrSettings { exact_hessian: true, ..super::PtrSettings::default() };
+    settings.discretization.substeps = substeps;
+    super::Ptr::new(ocp, settings).unwrap()
+}
+
 /// The interval constraints' curvature is `Σ y·Gᵀ∇²g G` over their peak rows: along a
 /// direction that leaves the dilations alone (the flow is then linear in the step, so the
 /// rows' `∇g·∂²x/∂z²` the curvature leaves out vanishes), `Σ_e H_e·s` equals the
@@ -525,14 +539,8 @@ fn correction_shifts_are_second_order_in_the_step() {
 /// point, the velocity rising through each segment (no row refined between points).
 #[test]
 fn peak_curvature_is_the_rows_second_derivative_in_the_states() {
-    use super::{Ptr, PtrSettings};
-    let nodes = 4;
-    let g = |p: &Expr, v: &Expr| &(&(v * v) + &(&p.sin() * 0.3)) + &(&(p * v) - 0.25);
-    let mut ocp = double_integrator(nodes, 10.0, [None, None], g, vec![]);
-    ocp.interval_constraints[0].sampling = crate::Sampling::GridPoints;
-    let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
-    settings.discretization.substeps = 4;
-    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    use super::Ptr;
+    let mut ptr = curved_interval_problem(10.0, false, 4);
     let (u0, s0, vp0, _) = ptr.layout();
     // p, v rising; accelerations positive; dilations near 1.
     let z: Vec<f64> = (0..vp0)
@@ -662,15 +670,9 @@ fn inexact_solves_follow_the_last_predicted_decrease() {
 /// the curvature misses a good share of it.
 #[test]
 fn peak_envelope_curvature_is_the_peaks_second_derivative() {
-    use super::{GridAt, Ptr, PtrSettings};
+    use super::GridAt;
     let nodes = 4;
-    let g = |p: &Expr, v: &Expr| &(&(v * v) + &(&p.sin() * 0.3)) + &(&(p * v) - 0.25);
-    let mut ocp = double_integrator(nodes, 0.6, [None, None], g, vec![1]);
-    ocp.interval_constraints[0].sampling = crate::Sampling::GridPoints;
-    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
-    let mut settings = PtrSettings { exact_hessian: true, ..PtrSettings::default() };
-    settings.discretization.substeps = 6;
-    let mut ptr = Ptr::new(ocp, settings).unwrap();
+    let mut ptr = curved_interval_problem(0.6, true, 6);
     let (u0, s0, vp0, _) = ptr.layout();
     // p, v from the dynamics' own start; accelerations alternating in sign at the nodes.
     let z: Vec<f64> = (0..vp0)
