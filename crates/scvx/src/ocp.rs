@@ -144,7 +144,9 @@ pub enum Sampling {
     /// nodes included), each bounding `g_o` over its half-step cell: the parabola through
     /// the point and its neighbours at its largest there, plus a bound on its cubic error
     /// from the grid's third differences, `ĝ_o = Σ_i w_i g_o(x(t_i))` over up to five points,
-    /// and the row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o`.
+    /// and the row `Σ_i w_i ∇g_o(x(t_i))·∂x(t_i)/∂z · Δz − ν_b ≤ −ĝ_o`. The rows of one
+    /// output (or bound side) on one segment share their buffer `ν_b`: the subproblem and
+    /// the merit price the segment's largest violation of it.
     GridPoints,
 }
 

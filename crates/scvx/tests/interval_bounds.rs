@@ -106,7 +106,8 @@ fn bounds_held_at_every_grid_point_need_no_integral() {
 }
 
 /// Polishing ([`PtrSettings::eps_flat`]): after an accepted, nearly feasible step whose
-/// predicted decrease is below `eps_flat·max(1, |cost|)`, λ_tr quadruples (up to its cap);
+/// predicted decrease is below `eps_flat·max(1, |cost|)` — and that bought no buffer or
+/// virtual control (whose prices then double instead) — λ_tr quadruples (up to its cap);
 /// the solve ends within `eps_flat` (relative) of where it ends without polishing, having
 /// stopped trading defects for gains smaller than that.
 #[test]
@@ -119,7 +120,11 @@ fn flat_steps_tighten_the_trust_region() {
         let (h, next) = (&w[0], &w[1]);
         let nearly_feasible =
             h.max_defect < 1e3 * set.eps_defect && h.max_violation < 1e3 * set.eps_vb;
-        if h.accepted && nearly_feasible && h.predicted.abs() < set.eps_flat * h.cost.max(1.0) {
+        // (Bought: some buffer or virtual control above the tolerances; below them in sum,
+        // none is.)
+        let bought_none = h.j_vb <= set.eps_vb && h.j_vc <= set.eps_defect;
+        let small = h.predicted.abs() < set.eps_flat * h.cost.max(1.0);
+        if h.accepted && nearly_feasible && small && bought_none {
             flat += 1;
             assert_eq!(next.lam_tr, (4.0 * h.lam_tr).min(set.lam_tr_max), "after {h:?}");
         }

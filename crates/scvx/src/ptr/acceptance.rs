@@ -209,7 +209,7 @@ impl Ptr {
         }
         let status = if accept {
             st.jbar = jc;
-            self.take_step(st, set, &record, backtracked)
+            self.take_step(st, set, &record, (backtracked, repriced))
         } else {
             self.refuse_step(st, set)
         };
@@ -312,7 +312,7 @@ impl Ptr {
         st: &mut Iterate,
         set: &PtrSettings,
         record: &Iteration,
-        backtracked: bool,
+        (backtracked, repriced): (bool, bool),
     ) -> Option<PtrStatus> {
         let (u0, s0, vp0, _) = self.layout();
         st.xb.copy_from_slice(&st.zc[..u0]);
@@ -337,7 +337,12 @@ impl Ptr {
             return Some(PtrStatus::Converged);
         }
         if let TrustRegionUpdate::Adaptive { eta } = set.trust_region {
-            if flat {
+            // Not while the step bought buffers or virtual control (its prices doubled): the
+            // model is paying for violations then, not running out of gains, and a trust
+            // region quadrupling each iteration outruns prices doubling — the steps grow too
+            // short to repair a violation the subproblem keeps buying, up to λ_tr's cap (the
+            // seed's tutorial statement stalled so 1.3e-6 over a waypoint's tolerance).
+            if flat && !repriced {
                 st.lam_tr = (st.lam_tr * 4.0).min(set.lam_tr_max);
             } else if backtracked || record.rho < eta[1] {
                 st.lam_tr = (st.lam_tr * 2.0).min(set.lam_tr_max);

@@ -26,20 +26,11 @@ impl Ptr {
             .sum();
         let interval_rows: Vec<usize> =
             ocp.interval_bounds.iter().copied().filter(|&r| r < n).collect();
-        let pts = settings.discretization.substeps + 1;
-        let places = rows::peaks::state_row_places(ocp.interval_bounds_sampling, nn, pts);
-        let n_peaks: usize = interval_rows
-            .iter()
-            .map(|&r| {
-                places
-                    * (usize::from(ocp.x_max[r].is_finite())
-                        + usize::from(ocp.x_min[r].is_finite()))
-            })
-            .sum::<usize>()
+        let n_peaks = rows::peaks::state_buffers(&ocp, &interval_rows, nn)
             + ocp
                 .interval_constraints
                 .iter()
-                .map(|c| rows::peaks::function_rows(c, nn, pts))
+                .map(|c| rows::peaks::function_buffers(c, nn))
                 .sum::<usize>();
         let n_vars = v.vb0 + n_buffers + n_peaks;
         // Evaluation buffers of the nodal constraints, per (constraint, node).
@@ -65,7 +56,11 @@ impl Ptr {
             n_vars,
             rb: RowBuilder::default(),
             nodal: Default::default(),
-            peaks: rows::peaks::PeakPlacement { buffer: v.vb0 + n_buffers, ..Default::default() },
+            peaks: rows::peaks::PeakPlacement {
+                buffer: v.vb0 + n_buffers,
+                first_buffer: v.vb0 + n_buffers,
+                ..Default::default()
+            },
             socs: Vec::new(),
         };
         let mut cone_rows = [0; 3];

@@ -10,8 +10,10 @@ pub(super) struct NodalEval {
     pub(super) lanes: Vec<EvalLane>,
     pub(super) values: Vec<f64>,
     pub(super) jac: Vec<f64>,
-    /// Per buffer (nodal, then interval-bound peaks): its positive violation.
+    /// Per nodal buffer, then per peak row: its positive violation.
     pub(super) violation: Vec<f64>,
+    /// Per peak buffer: the largest positive violation of its rows.
+    pub(super) buffer_violation: Vec<f64>,
     /// Coefficients of the interval-bound rows (`Source::Peak`) at the last `fill_peaks`.
     pub(super) peak_vals: Vec<f64>,
     /// Each interval-bound row's `sign·x̂ − bound` at the last `fill_peaks`.
@@ -579,13 +581,17 @@ impl Ptr {
     ) -> (f64, f64) {
         let nb = self.buffers.len();
         self.eval_interval(d, ev, at);
-        let (mut sum, mut max) = (0.0, 0.0f64);
+        let mut max = 0.0f64;
+        ev.buffer_violation.fill(0.0);
         for (i, p) in self.peaks.iter().enumerate() {
             let v = self.peak(d, ev, p).0;
             ev.violation[nb + i] = v.max(0.0);
-            sum += weights[nb + i] * v.max(0.0);
+            let worst = &mut ev.buffer_violation[p.buffer];
+            *worst = worst.max(v);
             max = max.max(v);
         }
+        // Priced as the subproblem prices its buffers: the largest violation of each.
+        let sum = ev.buffer_violation.iter().zip(&weights[nb..]).map(|(v, w)| w * v).sum();
         (sum, max)
     }
 

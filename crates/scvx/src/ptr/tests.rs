@@ -632,6 +632,51 @@ fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
     assert!((worst - 1e-4).abs() < 1e-9, "largest excess {worst}, the velocity's is 1e-4");
 }
 
+/// With a row at every grid point, the rows of one bound on one segment share a buffer, and
+/// the merit prices each buffer's largest violation (as the subproblem's `λ·ν` does), not
+/// the sum over its rows.
+#[test]
+fn grid_point_rows_share_their_segments_buffer_and_price_its_largest_violation() {
+    use super::{GridAt, Ptr, PtrSettings};
+    use crate::DiscretizationSettings;
+    let mut ocp = double_integrator(3, 1.0, [None, None], |_, v| v - 10.0, vec![1]);
+    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
+    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    let nb = ptr.buffers.len();
+    // Two segments, two sides of the velocity bound: four buffers, each shared by the rows
+    // of every grid point of its segment (and one per segment of the interval constraint's
+    // output).
+    assert_eq!(ptr.n_vars - ptr.vb0 - nb, 6);
+    for p in &ptr.peaks {
+        let twin = |q: &&super::PeakRow| q.seg == p.seg && q.sign == p.sign && q.of == p.of;
+        assert!(ptr.peaks.iter().filter(twin).all(|q| q.buffer == p.buffer));
+        assert!(ptr.peaks.iter().filter(|q| !twin(q)).all(|q| q.buffer != p.buffer));
+        let col = ptr.vb0 + nb + p.buffer;
+        let entries = ptr.a_colptr[col]..ptr.a_colptr[col + 1];
+        assert!(ptr.a_rowval[entries].contains(&p.row), "row {} lacks its buffer", p.row);
+    }
+    // v = 0.5 + t on segment 0 (1 s): over the limit 1 at several grid points, by 0.5 at
+    // its end; on segment 1 a falls from 1 to −1, v = 1.5 + t − t², 0.75 over at t = 0.5.
+    let z = [0.0, 0.5, 0.0, 1.5, 0.0, 0.5, 1.0, 1.0, -1.0, 2.0, 2.0, 2.0];
+    let mut ws = ptr.ocp.dynamics.workspace();
+    let mut d = ptr.output();
+    let settings = DiscretizationSettings::default();
+    ptr.ocp.dynamics.discretize(&z[..6], &z[6..9], &z[9..], &settings, &mut ws, &mut d).unwrap();
+    let mut ev = ptr.iterate().ev;
+    let weights: Vec<f64> = (0..nb + ptr.peaks.len()).map(|i| 1.0 + i as f64).collect();
+    let (priced, worst) = ptr.eval_peaks(&d, &mut ev, &weights, GridAt::Other);
+    let mut largest = [0.0f64; 6];
+    let mut summed = 0.0;
+    for (i, p) in ptr.peaks.iter().enumerate() {
+        largest[p.buffer] = largest[p.buffer].max(ev.violation[nb + i]);
+        summed += weights[nb + p.buffer] * ev.violation[nb + i];
+    }
+    let expected: f64 = largest.iter().enumerate().map(|(b, v)| weights[nb + b] * v).sum();
+    assert!((worst - 0.75).abs() < 1e-9, "largest excess {worst}");
+    assert!((priced - expected).abs() < 1e-12, "{priced} against {expected}");
+    assert!(summed > 2.0 * expected, "several rows of a buffer over: {summed} vs {expected}");
+}
+
 /// The inexact solves' tolerance: loosest for the first subproblem, then `inexact` times
 /// the last predicted decrease (relative to the cost where the cost exceeds 1), never
 /// tighter than the interior point's own tolerance; 0 turns it off, and a record without a

@@ -136,6 +136,10 @@ pub(super) struct PeakRow {
     /// A fixed grid point of the segment ([`crate::Sampling::GridPoints`]), or `None` for
     /// the peak.
     pub(super) at: Option<usize>,
+    /// Its buffer, numbered among the peak rows' buffers: the rows of one bound (a state
+    /// row's side, or an interval constraint's output) on one segment share one, at every
+    /// grid point (see `rows/peaks.rs`).
+    pub(super) buffer: usize,
 }
 
 /// What a [`PeakRow`] bounds.

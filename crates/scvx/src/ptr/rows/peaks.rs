@@ -1,5 +1,6 @@
-//! Peak rows (nonnegative cone), one per segment, each with a buffer: the largest value on
-//! the segment's integration grid, refined by a parabola, of
+//! Peak rows (nonnegative cone), one per segment (or one per grid point of it), with a
+//! buffer per bound and segment: the largest value on the segment's integration grid,
+//! refined by a parabola (or each grid point's half-step cell), of
 //! - a state row with interval bounds, against its upper or lower bound:
 //!   `sign·∇x̂_r·Δz − ν_b ≤ bound − sign·x̂_r`;
 //! - an output of an interval constraint `g(x) ≤ 0`:
@@ -7,6 +8,13 @@
 //!   by `g_o` depends on.
 //!
 //! The coefficients are offsets into a grid block `[x, Φ, B⁻, B⁺]`, filled each iteration.
+//!
+//! The rows of one bound on one segment — a grid point's each, with
+//! [`Sampling::GridPoints`] — share their buffer `ν_b ≥ 0`: the subproblem then pays
+//! `λ·max` of the segment's violations of that bound (an ℓ∞ penalty, exact while `λ` exceeds
+//! the sum of the rows' multipliers; the merit prices it alike), with one column and one
+//! `ν_b ≥ 0` row per segment where a buffer per row added one per grid point (the seed's
+//! subproblem: 1 079 columns instead of 2 696; BENCHMARKS.md, 2026-12-07).
 
 use armature_symbolic::SparsityPattern;
 
@@ -26,6 +34,8 @@ pub(in crate::ptr) struct PeakPlacement {
     pub(in crate::ptr) intervals: Vec<IntervalMeta>,
     /// The next peak buffer's column.
     pub(in crate::ptr) buffer: usize,
+    /// The first peak buffer's column.
+    pub(in crate::ptr) first_buffer: usize,
 }
 
 /// The segments an interval constraint covers (clamped to the grid; checked in `start`).
@@ -71,8 +81,15 @@ impl PeakPlacement {
         push(v.s(k), bm0 + off(1, v.m), su, rb);
     }
 
+    /// The first of `count` new buffer columns.
+    fn new_buffers(&mut self, count: usize) -> usize {
+        self.buffer += count;
+        self.buffer - count
+    }
+
     /// Ends a row of `of` on segment `seg` (at its peak, or at grid point `at`) whose
-    /// coefficients start at `start`.
+    /// coefficients start at `start`, with buffer column `buffer`.
+    #[allow(clippy::too_many_arguments)]
     fn finish_row(
         &mut self,
         (seg, at): (usize, Option<usize>),
@@ -80,14 +97,24 @@ impl PeakPlacement {
         sign: f64,
         bound: f64,
         start: usize,
+        buffer: usize,
         rb: &mut RowBuilder,
     ) {
-        rb.entry(self.buffer, Source::Const(-1.0));
+        rb.entry(buffer, Source::Const(-1.0));
         let src = start..self.src.len();
-        self.peaks.push(PeakRow { seg, of, sign, bound, row: rb.row, src, at });
+        let buffer = buffer - self.first_buffer;
+        self.peaks.push(PeakRow { seg, of, sign, bound, row: rb.row, src, at, buffer });
         rb.end_row(0.0);
-        self.buffer += 1;
     }
+}
+
+/// The finite bounds of the state rows with interval bounds, `(row, sign, bound)` in the
+/// order their rows are placed: a row's upper bound, then its lower.
+fn state_bounds(ocp: &Ocp, rows: &[usize]) -> Vec<(usize, f64, f64)> {
+    rows.iter()
+        .flat_map(|&r| [(r, 1.0, ocp.x_max[r]), (r, -1.0, -ocp.x_min[r])])
+        .filter(|(_, _, bound)| bound.is_finite())
+        .collect()
 }
 
 /// Appends the state rows' peak rows (segment-major), their buffers from `placed.buffer`.
@@ -100,20 +127,16 @@ pub(in crate::ptr) fn push_state_peaks(
     pts: usize,
     rb: &mut RowBuilder,
 ) {
+    let bounds = state_bounds(ocp, rows);
     for k in 0..v.nn - 1 {
+        let first = placed.new_buffers(bounds.len());
         for at in sample_points(ocp.interval_bounds_sampling, pts) {
-            for &r in rows {
-                for (sign, bound) in [(1.0, ocp.x_max[r]), (-1.0, -ocp.x_min[r])] {
-                    if !bound.is_finite() {
-                        continue;
-                    }
-                    let start = placed.src.len();
-                    let off = |block: usize, i: usize| {
-                        if block == 0 { r * v.n + i } else { r * v.mc + i }
-                    };
-                    placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
-                    placed.finish_row((k, at), PeakOf::State(r), sign, bound, start, rb);
-                }
+            for (b, &(r, sign, bound)) in bounds.iter().enumerate() {
+                let start = placed.src.len();
+                let off =
+                    |block: usize, i: usize| if block == 0 { r * v.n + i } else { r * v.mc + i };
+                placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
+                placed.finish_row((k, at), PeakOf::State(r), sign, bound, start, first + b, rb);
             }
         }
     }
@@ -130,17 +153,16 @@ fn sample_points(sampling: Sampling, pts: usize) -> Vec<Option<usize>> {
     }
 }
 
-/// The number of places of a row on the `nn − 1` segments under `sampling`.
-pub(in crate::ptr) fn state_row_places(sampling: Sampling, nn: usize, pts: usize) -> usize {
-    (nn - 1) * sample_points(sampling, pts).len()
+/// The number of buffers of the state rows' peak rows on `nn` nodes (one per finite bound
+/// and segment).
+pub(in crate::ptr) fn state_buffers(ocp: &Ocp, rows: &[usize], nn: usize) -> usize {
+    (nn - 1) * state_bounds(ocp, rows).len()
 }
 
-/// The number of rows (and buffers) of interval constraint `c` on `nn` nodes with `pts` grid
-/// points per segment.
-pub(in crate::ptr) fn function_rows(c: &IntervalConstraint, nn: usize, pts: usize) -> usize {
-    let segs = segments(c, nn);
-    let places: usize = segs.len() * sample_points(c.sampling, pts).len();
-    places * c.function.n_outputs()
+/// The number of buffers of interval constraint `c`'s peak rows on `nn` nodes (one per
+/// output and segment).
+pub(in crate::ptr) fn function_buffers(c: &IntervalConstraint, nn: usize) -> usize {
+    segments(c, nn).len() * c.function.n_outputs()
 }
 
 /// Appends the interval constraints' peak rows (constraint, segment, output) with their
@@ -165,6 +187,7 @@ pub(in crate::ptr) fn push_function_peaks(
         }
         let segs = segments(c, v.nn);
         for k in segs.clone() {
+            let first = placed.new_buffers(nout);
             for at in sample_points(c.sampling, pts) {
                 for (out, dep) in deps.iter().enumerate() {
                     let start = placed.src.len();
@@ -172,7 +195,7 @@ pub(in crate::ptr) fn push_function_peaks(
                     let stride = Some((v.n, v.mc));
                     placed.coefficients(v, k, reads, |_, i| i, stride, rb);
                     let of = PeakOf::Function { c: ci, out };
-                    placed.finish_row((k, at), of, 1.0, 0.0, start, rb);
+                    placed.finish_row((k, at), of, 1.0, 0.0, start, first + out, rb);
                 }
             }
         }
