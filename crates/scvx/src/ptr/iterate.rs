@@ -117,7 +117,7 @@ impl Ptr {
                 values: vec![0.0; self.g_len.0],
                 jac: vec![0.0; self.g_len.1],
                 violation: vec![0.0; self.buffers.len() + self.peaks.len()],
-                buffer_violation: vec![0.0; self.n_vars - self.vb0 - self.buffers.len()],
+                buffer_violation: vec![0.0; self.peak_buffers()],
                 peak_vals: vec![0.0; self.peak_src.len()],
                 peak_g: vec![0.0; self.peaks.len()],
                 fgrid: vec![
@@ -138,7 +138,7 @@ impl Ptr {
                 segment_peak: vec![0.0; self.intervals.iter().map(|m| m.last - m.first).sum()],
             },
             lam_vc: vec![0.0; n],
-            lam_vb: vec![0.0; self.n_vars - self.vb0],
+            lam_vb: vec![0.0; self.buffers.len() + self.peak_buffers()],
             lam_tr: 0.0,
             jbar: 0.0,
             tf: 0.0,

@@ -178,6 +178,12 @@ impl Ptr {
         (nn * n, nn * n + nn * m, nn * n + nn * m + nn, (nn - 1) * n)
     }
 
+    /// The peak rows' buffers (the last columns; one per bound and segment, shared by its
+    /// rows: `rows/peaks.rs`).
+    pub(super) fn peak_buffers(&self) -> usize {
+        self.n_vars - self.vb0 - self.buffers.len()
+    }
+
     /// Sizes of the convex subproblem (fixed at construction). The reduced KKT matrix's
     /// come from the interior point of the running (or last) solve; before the first solve
     /// one is analysed for them.

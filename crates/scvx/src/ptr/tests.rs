@@ -603,16 +603,26 @@ fn peak_curvature_is_the_rows_second_derivative_in_the_states() {
     assert!(worst <= 1e-5 * scale, "H·s off by {worst:e} (scale {scale:e})");
 }
 
+/// The 3-node double integrator of the grid-point row tests (velocity limit 1, rows at every
+/// grid point), discretized at `z = [x (6) | u (3) | s (3)]`.
+fn grid_point_double_integrator(z: &[f64; 12]) -> (super::Ptr, crate::Discretization) {
+    use super::{Ptr, PtrSettings};
+    let mut ocp = double_integrator(3, 1.0, [None, None], |_, v| v - 10.0, vec![1]);
+    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
+    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    let mut ws = ptr.ocp.dynamics.workspace();
+    let mut d = ptr.output();
+    let settings = crate::DiscretizationSettings::default();
+    ptr.ocp.dynamics.discretize(&z[..6], &z[6..9], &z[9..], &settings, &mut ws, &mut d).unwrap();
+    (ptr, d)
+}
+
 /// With a row at every grid point, the half step just before an interior node is its
 /// segment's own (the node's row on the next segment reaches only into that one): a velocity
 /// whose only excess is the vertex of its parabola there is seen.
 #[test]
 fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
-    use super::{GridAt, Ptr, PtrSettings};
-    use crate::DiscretizationSettings;
-    let mut ocp = double_integrator(3, 1.0, [None, None], |_, v| v - 10.0, vec![1]);
-    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
-    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    use super::GridAt;
     // Segment 0 lasts h = s·Δτ = 1 s with a from 1 to −0.02: v peaks at t* = 1/1.02, in the
     // last half step (0.95, 1), at v0 + t* − 1.02·t*²/2; the grid points, the node included,
     // stay below the limit.
@@ -621,11 +631,8 @@ fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
     let v = |v0: f64, t: f64| v0 + a0 * t + (a1 - a0) * t * t / (2.0 * h);
     let v0 = 1.0 + 1e-4 - v(0.0, t_star);
     assert!(t_star > 0.95 && v(v0, 1.0) < 1.0 && v(v0, 0.9) < 1.0);
-    let z = [0.0, v0, 0.0, 0.0, 0.0, 0.0, a0, a1, 0.0, 2.0, 2.0, 2.0];
-    let mut ws = ptr.ocp.dynamics.workspace();
-    let mut d = ptr.output();
-    let settings = DiscretizationSettings::default();
-    ptr.ocp.dynamics.discretize(&z[..6], &z[6..9], &z[9..], &settings, &mut ws, &mut d).unwrap();
+    let (ptr, d) =
+        grid_point_double_integrator(&[0.0, v0, 0.0, 0.0, 0.0, 0.0, a0, a1, 0.0, 2.0, 2.0, 2.0]);
     let mut ev = ptr.iterate().ev;
     let weights = vec![1.0; ptr.buffers.len() + ptr.peaks.len()];
     let (_, worst) = ptr.eval_peaks(&d, &mut ev, &weights, GridAt::Other);
@@ -637,16 +644,17 @@ fn grid_point_rows_see_a_peak_just_before_an_interior_node() {
 /// the sum over its rows.
 #[test]
 fn grid_point_rows_share_their_segments_buffer_and_price_its_largest_violation() {
-    use super::{GridAt, Ptr, PtrSettings};
-    use crate::DiscretizationSettings;
-    let mut ocp = double_integrator(3, 1.0, [None, None], |_, v| v - 10.0, vec![1]);
-    ocp.interval_bounds_sampling = crate::Sampling::GridPoints;
-    let ptr = Ptr::new(ocp, PtrSettings::default()).unwrap();
+    use super::GridAt;
+    // v = 0.5 + t on segment 0 (1 s): over the limit 1 at several grid points, by 0.5 at
+    // its end; on segment 1 a falls from 1 to −1, v = 1.5 + t − t², 0.75 over at t = 0.5.
+    let (ptr, d) = grid_point_double_integrator(&[
+        0.0, 0.5, 0.0, 1.5, 0.0, 0.5, 1.0, 1.0, -1.0, 2.0, 2.0, 2.0,
+    ]);
     let nb = ptr.buffers.len();
     // Two segments, two sides of the velocity bound: four buffers, each shared by the rows
     // of every grid point of its segment (and one per segment of the interval constraint's
     // output).
-    assert_eq!(ptr.n_vars - ptr.vb0 - nb, 6);
+    assert_eq!(ptr.peak_buffers(), 6);
     for p in &ptr.peaks {
         let twin = |q: &&super::PeakRow| q.seg == p.seg && q.sign == p.sign && q.of == p.of;
         assert!(ptr.peaks.iter().filter(twin).all(|q| q.buffer == p.buffer));
@@ -655,13 +663,6 @@ fn grid_point_rows_share_their_segments_buffer_and_price_its_largest_violation()
         let entries = ptr.a_colptr[col]..ptr.a_colptr[col + 1];
         assert!(ptr.a_rowval[entries].contains(&p.row), "row {} lacks its buffer", p.row);
     }
-    // v = 0.5 + t on segment 0 (1 s): over the limit 1 at several grid points, by 0.5 at
-    // its end; on segment 1 a falls from 1 to −1, v = 1.5 + t − t², 0.75 over at t = 0.5.
-    let z = [0.0, 0.5, 0.0, 1.5, 0.0, 0.5, 1.0, 1.0, -1.0, 2.0, 2.0, 2.0];
-    let mut ws = ptr.ocp.dynamics.workspace();
-    let mut d = ptr.output();
-    let settings = DiscretizationSettings::default();
-    ptr.ocp.dynamics.discretize(&z[..6], &z[6..9], &z[9..], &settings, &mut ws, &mut d).unwrap();
     let mut ev = ptr.iterate().ev;
     let weights: Vec<f64> = (0..nb + ptr.peaks.len()).map(|i| 1.0 + i as f64).collect();
     let (priced, worst) = ptr.eval_peaks(&d, &mut ev, &weights, GridAt::Other);

@@ -89,15 +89,11 @@ impl PeakPlacement {
 
     /// Ends a row of `of` on segment `seg` (at its peak, or at grid point `at`) whose
     /// coefficients start at `start`, with buffer column `buffer`.
-    #[allow(clippy::too_many_arguments)]
     fn finish_row(
         &mut self,
         (seg, at): (usize, Option<usize>),
-        of: PeakOf,
-        sign: f64,
-        bound: f64,
-        start: usize,
-        buffer: usize,
+        (of, sign, bound): (PeakOf, f64, f64),
+        (start, buffer): (usize, usize),
         rb: &mut RowBuilder,
     ) {
         rb.entry(buffer, Source::Const(-1.0));
@@ -136,7 +132,8 @@ pub(in crate::ptr) fn push_state_peaks(
                 let off =
                     |block: usize, i: usize| if block == 0 { r * v.n + i } else { r * v.mc + i };
                 placed.coefficients(v, k, |col| tp.contains(r, col), off, None, rb);
-                placed.finish_row((k, at), PeakOf::State(r), sign, bound, start, first + b, rb);
+                let of = (PeakOf::State(r), sign, bound);
+                placed.finish_row((k, at), of, (start, first + b), rb);
             }
         }
     }
@@ -194,8 +191,8 @@ pub(in crate::ptr) fn push_function_peaks(
                     let reads = |col: usize| dep.iter().any(|&(r, _)| tp.contains(r, col));
                     let stride = Some((v.n, v.mc));
                     placed.coefficients(v, k, reads, |_, i| i, stride, rb);
-                    let of = PeakOf::Function { c: ci, out };
-                    placed.finish_row((k, at), of, 1.0, 0.0, start, first + out, rb);
+                    let of = (PeakOf::Function { c: ci, out }, 1.0, 0.0);
+                    placed.finish_row((k, at), of, (start, first + out), rb);
                 }
             }
         }
