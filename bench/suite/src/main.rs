@@ -1,7 +1,7 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--per-segment K] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
 //! [--velocity-peaks true|false] [--time-scaled true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
-//! [--no-retime]`: solves every task of the suite with default settings — each solve
+//! [--no-retime] [--ik-seed S] [--fallbacks K]`: solves every task of the suite with default settings — each solve
 //! stopping its minimization once its path retimed stalls and retiming its verified solution
 //! along that path, as the CLI does by default (`ArmTask::retime_stall`, `ArmTask::retime`,
 //! `[time] retime`) — verifies the result independently (the retimed trajectory by
@@ -27,7 +27,11 @@
 //! true|false` solves every task for its time-scaled torques or its torques
 //! (`ArmTask::time_scaled_torque`; the model chooses by default); `--retime-stall JSON`
 //! changes the rule by which minimization stops once the path retimed stalls (the default
-//! `RetimeStall` with the object's fields).
+//! `RetimeStall` with the object's fields); `--ik-seed S` draws every task's IK branch
+//! samples from seed S (`Initialization::seed`, 0 by default: another initialization of the
+//! same tasks) and `--fallbacks K` sets how many fallback starts a solve that does not
+//! converge may try (`armature_arm::solve_fallbacks`, 2 by default; iterations and time count
+//! every start).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -44,6 +48,7 @@ fn main() {
         value("--velocity-peaks"),
     )
     .and_then(|s| s.with_per_segment(value("--per-segment")))
+    .and_then(|s| s.with_starts_from((value("--ik-seed"), value("--fallbacks"))))
     .and_then(|s| s.with_time_scaled(value("--time-scaled")))
     .and_then(|s| {
         let on = !args.iter().any(|a| a == "--no-retime" || a == "--no-retime-stall");

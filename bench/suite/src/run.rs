@@ -125,7 +125,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         history: Vec::new(),
     };
     let start = Instant::now();
-    let (solution, fine) = match solve(t) {
+    let (solution, fine, extra) = match solve(t) {
         Ok(s) => s,
         Err(e) => {
             out.status = format!("error: {e}");
@@ -144,7 +144,7 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         None => t,
     };
     out.status = format!("{:?}", solution.status);
-    out.iterations = solution.iterations;
+    out.iterations = solution.iterations + extra;
     out.history = solution.history.clone();
     out.final_time = solution.final_time;
     let nodes = &solution.nodes;
@@ -191,10 +191,11 @@ fn retime(t: &SuiteTask, solution: &Solution, out: &mut Outcome, start: Instant)
     }
 }
 
-/// Plans and solves a task; with `refine > 1`, then its refined task from that solution,
-/// returned with the sum of both stages' iterations (a first stage that does not converge
-/// is the outcome).
-fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>), String> {
+/// Plans and solves a task, from the task's fallback starts too when the first solve does
+/// not converge ([`armature_arm::solve_fallbacks`]); with `refine > 1`, then its refined
+/// task from that solution, returned with the sum of both stages' iterations (a first stage
+/// that does not converge is the outcome). Also the iterations of the starts not kept.
+fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>, usize), String> {
     let text = |e: &dyn std::fmt::Display| e.to_string();
     let plan = t.task.plan().map_err(|e| text(&e))?;
     let coarse = match t.task.initialization.starts {
@@ -210,14 +211,20 @@ fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>), String> {
         }
         starts => plan.solve_multi_start(starts).map_err(|e| text(&e))?.best,
     };
+    // A solve that does not converge is tried again from other guesses (the task's
+    // fallbacks); the iterations counted are every start's.
+    let first_iterations = coarse.iterations;
+    let fallbacks = armature_arm::solve_fallbacks(&t.task, coarse);
+    let extra = fallbacks.total_iterations(first_iterations) - fallbacks.solution.iterations;
+    let coarse = fallbacks.solution;
     if t.refine <= 1 || coarse.status != PtrStatus::Converged {
-        return Ok((coarse, None));
+        return Ok((coarse, None, extra));
     }
     let task = t.task.refined(t.refine);
     let mut fine = task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
     set_refined_guess(&mut fine, &coarse, t.refine).map_err(|e| text(&e))?;
     let solution = fine.solve().map_err(|e| text(&e))?;
-    Ok((join_stages(&coarse, solution), Some(task)))
+    Ok((join_stages(&coarse, solution), Some(task), extra))
 }
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {

@@ -30,6 +30,10 @@ pub struct Study {
     /// The rule by which every task's solve stops minimizing once its path retimed stalls
     /// (`ArmTask::retime_stall`; `None`: minimizing to the end).
     pub retime_stall: Option<armature_arm::RetimeStall>,
+    /// Every task's IK sample seed (`Initialization::seed`; `None`: the task's own, 0).
+    pub ik_seed: Option<u64>,
+    /// Every task's fallback starts (`Initialization::fallbacks`; `None`: the default, 2).
+    pub fallbacks: Option<usize>,
 }
 
 impl Study {
@@ -66,6 +70,8 @@ impl Study {
             refine,
             starts,
             retime_stall: None,
+            ik_seed: None,
+            fallbacks: None,
         })
     }
 
@@ -102,6 +108,27 @@ impl Study {
         Ok(self)
     }
 
+    /// With the command line's `--ik-seed S` and `--fallbacks K` (none: each task's own).
+    ///
+    /// # Errors
+    /// A value that is not a whole number (a fallback count from 0 to 16).
+    pub fn with_starts_from(
+        mut self,
+        (seed, fallbacks): (Option<&String>, Option<&String>),
+    ) -> Result<Self, String> {
+        if let Some(s) = seed {
+            self.ik_seed =
+                Some(s.parse().map_err(|_| format!("--ik-seed {s}: need a whole number"))?);
+        }
+        if let Some(k) = fallbacks {
+            match k.parse::<usize>() {
+                Ok(k) if k <= 16 => self.fallbacks = Some(k),
+                _ => return Err(format!("--fallbacks {k}: need a whole number from 0 to 16")),
+            }
+        }
+        Ok(self)
+    }
+
     /// With the command line's `--per-segment K` (none: the tasks as generated).
     ///
     /// # Errors
@@ -126,6 +153,12 @@ impl Study {
         }
         t.refine = self.refine;
         t.task.initialization.starts = self.starts;
+        if let Some(seed) = self.ik_seed {
+            t.task.initialization.seed = seed;
+        }
+        if let Some(k) = self.fallbacks {
+            t.task.initialization.fallbacks = k;
+        }
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
         }
@@ -242,6 +275,23 @@ mod tests {
         for bad in ["0", "17", "two"] {
             let e = plain().with_per_segment(Some(&bad.into())).err().unwrap();
             assert!(e.contains("--per-segment"), "{e}");
+        }
+    }
+
+    #[test]
+    fn every_task_takes_the_ik_seed_and_fallbacks_given_and_bad_values_are_refused() {
+        let plain = || Study::from_args((None, None, None), None, None).unwrap();
+        let task = crate::generate::suite().into_iter().next().unwrap();
+        let own = plain().with_starts_from((None, None)).unwrap().apply(task.clone()).unwrap();
+        assert_eq!(own.task.initialization, task.task.initialization);
+        let given = plain().with_starts_from((Some(&"7".into()), Some(&"0".into()))).unwrap();
+        let t = given.apply(task).unwrap();
+        assert_eq!((t.task.initialization.seed, t.task.initialization.fallbacks), (7, 0));
+        let e = plain().with_starts_from((Some(&"-1".into()), None)).err().unwrap();
+        assert!(e.contains("--ik-seed"), "{e}");
+        for bad in ["17", "x"] {
+            let e = plain().with_starts_from((None, Some(&bad.into()))).err().unwrap();
+            assert!(e.contains("--fallbacks"), "{e}");
         }
     }
 }

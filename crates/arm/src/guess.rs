@@ -48,11 +48,14 @@ pub(crate) fn initial_guess(task: &ArmTask, dynamics: &Resolved) -> Result<Guess
                 samples: task.initialization.restarts,
                 ..BranchSettings::default()
             };
+            // The samples' seed is the task's; the start configuration above is not drawn
+            // again with it (a fallback start solves the same task).
+            let sampling = IkSettings { rng_seed: task.initialization.seed, ..settings.clone() };
             ik_branch_search(
                 &task.chain,
                 &keyframes,
                 start,
-                &settings,
+                &sampling,
                 &search,
                 &weights,
                 &mut clearance_cost(task),

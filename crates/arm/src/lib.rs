@@ -4,6 +4,7 @@
 mod check;
 mod dynamics;
 mod error;
+mod fallback;
 mod feasibility;
 pub mod fixtures;
 mod formulation;
@@ -17,6 +18,7 @@ mod retime;
 mod task;
 
 pub use error::{ArmError, TaskItem};
+pub use fallback::{Fallbacks, fallback_task, solve_fallbacks};
 pub use multi_start::{
     MultiStart, StartOutcome, StartSummary, best_start, best_start_by, scale_timing, solve_starts,
     solve_starts_with, start_time_scale, summarize,

@@ -226,11 +226,18 @@ pub struct Initialization {
     /// [`start_time_scale`](crate::start_time_scale) for each, solved in parallel, the best
     /// kept ([`ArmPlan::solve_multi_start`](crate::ArmPlan::solve_multi_start)). Default 1.
     pub starts: usize,
+    /// The seed of the branch search's random configurations ([`Mode::Branches`]): another
+    /// seed draws other samples at the waypoints, and so possibly another IK path. Default 0.
+    pub seed: u64,
+    /// Fallback starts: when the solve does not converge, up to this many more are solved one
+    /// after another, each from another IK path and timing ([`fallback_task`](crate::fallback_task)),
+    /// until one converges ([`solve_fallbacks`](crate::solve_fallbacks)). Default 2.
+    pub fallbacks: usize,
 }
 
 impl Default for Initialization {
     fn default() -> Self {
-        Initialization { mode: Mode::Branches, restarts: 8, starts: 1 }
+        Initialization { mode: Mode::Branches, restarts: 8, starts: 1, seed: 0, fallbacks: 2 }
     }
 }
 

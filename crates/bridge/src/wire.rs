@@ -69,6 +69,8 @@ pub enum Status {
     NumericalFailure,
     /// Converged at the nodes, but a continuous-time constraint is violated between them.
     ViolatedBetweenNodes,
+    /// A constraint stayed violated without progress: a local infeasibility.
+    LocallyInfeasible,
 }
 
 impl Status {
@@ -87,6 +89,7 @@ impl Status {
             Status::SubproblemInfeasible,
             Status::NumericalFailure,
             Status::ViolatedBetweenNodes,
+            Status::LocallyInfeasible,
         ]
         .into_iter()
         .find(|s| s.code() == code)
@@ -102,6 +105,7 @@ impl Status {
             "subproblem_infeasible" => Some(Status::SubproblemInfeasible),
             "numerical_failure" => Some(Status::NumericalFailure),
             "violated_between_nodes" => Some(Status::ViolatedBetweenNodes),
+            "locally_infeasible" => Some(Status::LocallyInfeasible),
             _ => None,
         }
     }
@@ -116,6 +120,7 @@ impl Status {
             Status::SubproblemInfeasible => "subproblem_infeasible",
             Status::NumericalFailure => "numerical_failure",
             Status::ViolatedBetweenNodes => "violated_between_nodes",
+            Status::LocallyInfeasible => "locally_infeasible",
         }
     }
 }

@@ -242,7 +242,7 @@ fn locate(task: &TaskFile, src: Source<'_>, e: &ArmError) -> LocatedError {
 /// Most starts of a solve (`[initialization] starts`).
 pub const MAX_STARTS: usize = 16;
 
-/// `[initialization]`: the IK mode, restarts and starts.
+/// `[initialization]`: the IK mode, restarts, starts, seed and fallbacks.
 fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, LocatedError> {
     let mode = match task.initialization.ik.get_ref().as_str() {
         "sequential" => Mode::Sequential,
@@ -265,7 +265,18 @@ fn initialization(task: &TaskFile, src: Source<'_>) -> Result<Initialization, Lo
         let message = format!("starts {}: give 1 to {MAX_STARTS}", starts.get_ref());
         return Err(src.error(starts, message));
     }
-    Ok(Initialization { mode, restarts: *restarts.get_ref(), starts: *starts.get_ref() })
+    let fallbacks = &task.initialization.fallbacks;
+    if *fallbacks.get_ref() > MAX_STARTS {
+        let message = format!("fallbacks {}: give 0 to {MAX_STARTS}", fallbacks.get_ref());
+        return Err(src.error(fallbacks, message));
+    }
+    Ok(Initialization {
+        mode,
+        restarts: *restarts.get_ref(),
+        starts: *starts.get_ref(),
+        seed: task.initialization.seed,
+        fallbacks: *fallbacks.get_ref(),
+    })
 }
 
 /// `[robot]`'s velocity and torque limits (the robot's own where not given).

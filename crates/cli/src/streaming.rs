@@ -33,6 +33,7 @@ pub fn wire_status(s: PtrStatus) -> Status {
         PtrStatus::SubproblemInfeasible => Status::SubproblemInfeasible,
         PtrStatus::NumericalFailure => Status::NumericalFailure,
         PtrStatus::ViolatedBetweenNodes => Status::ViolatedBetweenNodes,
+        PtrStatus::LocallyInfeasible => Status::LocallyInfeasible,
     }
 }
 

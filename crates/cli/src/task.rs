@@ -60,6 +60,9 @@
 //! restarts = 8                   # random configurations solved from at each waypoint
 //! starts = 1                     # solves from the guess's timing scaled by 1, 0.7, 1.4, …
 //!                                # in parallel, the fastest kept (retimed)
+//! seed = 0                       # of the random configurations at the waypoints
+//! fallbacks = 2                  # a solve that does not converge is tried again from
+//!                                # up to this many other guesses (other samples, timing)
 //!
 //! [settings]                     # armature_scvx::PtrSettings, every field optional
 //! max_iterations = 200
@@ -474,12 +477,27 @@ pub struct InitSpec {
     #[serde(default = "one")]
     #[schemars(with = "usize")]
     pub starts: Spanned<usize>,
+    /// The seed of the random configurations the branch search solves from at the waypoints.
+    /// Default 0.
+    #[serde(default)]
+    pub seed: u64,
+    /// Fallback starts, 0 to 16: when the solve does not converge, it is tried again from up
+    /// to this many other guesses, one after another (the random configurations drawn from
+    /// seeds `seed + 1`, …, the timing scaled by 0.7, 1.4, …), the first that converges kept
+    /// (each tried is reported in a line). Default 2.
+    #[serde(default = "two")]
+    #[schemars(with = "usize")]
+    pub fallbacks: Spanned<usize>,
 }
 
 impl Default for InitSpec {
     fn default() -> Self {
-        InitSpec { ik: branches(), restarts: eight(), starts: one() }
+        InitSpec { ik: branches(), restarts: eight(), starts: one(), seed: 0, fallbacks: two() }
     }
+}
+
+fn two() -> Spanned<usize> {
+    Spanned::new(0..0, 2)
 }
 
 fn one() -> Spanned<usize> {

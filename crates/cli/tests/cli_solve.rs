@@ -571,3 +571,33 @@ fn a_refined_task_solves_twice_and_ends_faster() {
     assert!(stderr.contains(&format!("task.toml:{line}:10: refine 0: need 1 to 16")), "{stderr}");
     assert!(!out.exists());
 }
+
+/// `[initialization] fallbacks`: a solve that does not converge (here cut off by a cap of 3
+/// iterations) is tried again from other guesses, each reported in a line with its IK seed
+/// and timing; none of them converges either, so the exit is "not converged" (3). With
+/// `fallbacks = 0` nothing is tried again.
+#[test]
+fn a_solve_that_does_not_converge_tries_its_fallback_starts() {
+    let capped = TASK.replace("[settings]\n", "[settings]\nmax_iterations = 3\n");
+    let with = capped.replace("[settings]\n", "[initialization]\nfallbacks = 2\n\n[settings]\n");
+    let path = temp_file("fallbacks", "task.toml", &with);
+    let (code, out, err) = armature(&["solve", path.to_str().unwrap()]);
+    assert_eq!(code, 3, "{out}{err}");
+    let text = format!("{out}{err}");
+    assert!(text.contains("not converged (max_iterations): trying the fallback starts"), "{text}");
+    assert!(
+        text.contains("fallback 1 (IK samples from seed 1, guess timing × 0.70): max_iterations"),
+        "{text}"
+    );
+    assert!(text.contains("fallback 2 (IK samples from seed 2, guess timing × 1.40)"), "{text}");
+    let without = capped.replace("[settings]\n", "[initialization]\nfallbacks = 0\n\n[settings]\n");
+    let path = temp_file("retries-off", "task.toml", &without);
+    let (code, out, err) = armature(&["solve", path.to_str().unwrap()]);
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(!format!("{out}{err}").contains("fallback start"), "{out}{err}");
+    let bad = capped.replace("[settings]\n", "[initialization]\nfallbacks = 17\n\n[settings]\n");
+    let path = temp_file("fallbacks-bad", "task.toml", &bad);
+    let (code, _, err) = armature(&["solve", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("fallbacks 17: give 0 to 16"), "{err}");
+}

@@ -208,3 +208,44 @@ fn named_entries_of_a_nodal_constraint_are_reported_apart() {
         assert!(matches!(err, armature_scvx::PtrError::NodalConstraint { .. }), "{err}");
     }
 }
+
+/// Constraints that contradict each other at a node (p ≤ 0.3 and p ≥ 0.5): no step can
+/// repair them, the exact penalty settles where both are violated, and the solve stops as
+/// locally infeasible once the violation has stayed pinned for `infeasible_window`
+/// iterations — long before the cap, the violation naming the constraint. With the test off
+/// it runs to the cap.
+#[test]
+fn contradicting_constraints_end_locally_infeasible_before_the_cap() {
+    let nodes = 31;
+    let build = || {
+        double_integrator::problem(nodes, |p, v, a| {
+            let g =
+                Function::compile(&[p - 0.3, 0.5 - p], &[&[p.clone(), v.clone()], &[a.clone()]])
+                    .unwrap();
+            vec![NodalConstraint {
+                name: "contradiction".into(),
+                function: g,
+                nodes: vec![15],
+                kind: NodalKind::Inequality,
+                output_names: Vec::new(),
+            }]
+        })
+    };
+    let (x, u, s) = double_integrator::poor_guess(nodes);
+    let settings = published_ptr(200);
+    let window = settings.infeasible_window;
+    let r = Ptr::new(build(), settings.clone()).unwrap().solve(&x, &u, &s).unwrap();
+    eprintln!("status {:?}, iterations {}", r.status, r.history.len());
+    assert_eq!(r.status, PtrStatus::LocallyInfeasible);
+    assert!(r.history.len() >= window && r.history.len() < 100, "{} iterations", r.history.len());
+    let worst = r.max_violation.expect("a violation is reported");
+    assert!(worst.constraint.name().contains("contradiction"), "{}", worst.constraint.name());
+    assert!(worst.value > 0.05, "the gap of 0.2 is shared: {}", worst.value);
+    assert_eq!(r.history.last().unwrap().status, Some(PtrStatus::LocallyInfeasible));
+    let mut off = settings;
+    off.infeasible_window = 0;
+    let r = Ptr::new(build(), off).unwrap().solve(&x, &u, &s).unwrap();
+    eprintln!("without the test: status {:?}, iterations {}", r.status, r.history.len());
+    assert_ne!(r.status, PtrStatus::LocallyInfeasible);
+    assert_ne!(r.status, PtrStatus::Converged);
+}

@@ -87,6 +87,9 @@ pub struct Loaded {
     /// With `[time] retime` (the default where the time is minimized): the task, to retime
     /// its solution along the solved path.
     pub retime: Option<armature_arm::ArmTask>,
+    /// With `[initialization] fallbacks = K > 0` (the default): the task, to solve it again
+    /// from other guesses when the first stage does not converge.
+    pub fallback: Option<armature_arm::ArmTask>,
 }
 
 /// Parses, checks and compiles a task file or a problem file (recognised by its
@@ -104,14 +107,17 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
         let keypoints = Vec::new();
-        let (refined, starts, retime) = (None, 1, None);
-        return Ok(Loaded { plan: None, compiled, keypoints, inputs, refined, starts, retime });
+        let (refined, starts, retime, fallback) = (None, 1, None, None);
+        let loaded =
+            Loaded { plan: None, compiled, keypoints, inputs, refined, starts, retime, fallback };
+        return Ok(loaded);
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
     let factor = refinement(&task, src).map_err(CliError::bad_input)?;
     let fine = (factor > 1).then(|| arm.refined(factor));
     let starts = arm.initialization.starts;
+    let fallback = (arm.initialization.fallbacks > 0).then(|| arm.clone());
     let retime = retiming(&task, src).map_err(CliError::bad_input)?.then(|| arm.clone());
     let plan = plan_arm(&task, src, arm).map_err(CliError::bad_input)?;
     let compile = |plan: &crate::pipeline::Plan| {
@@ -129,7 +135,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     let keypoints = plan.chain.keypoint_names().map(str::to_string).collect();
     let robot = crate::task::resolve_robot(task.robot.name.get_ref(), path);
     let inputs = path.map(Path::to_path_buf).into_iter().chain([PathBuf::from(robot)]).collect();
-    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined, starts, retime })
+    Ok(Loaded { plan: Some(plan), compiled, keypoints, inputs, refined, starts, retime, fallback })
 }
 
 /// A problem-layer error of a planned task (the task's checks let few through): at the
@@ -437,6 +443,12 @@ fn outcome(solution: &Solution) -> Result<(), CliError> {
             v.value,
             v.time.map_or(String::new(), |t| format!(" at t = {t:.3} s"))
         ),
+        (PtrStatus::LocallyInfeasible, Some(v)) => format!(
+            "locally infeasible: {} stayed violated by {:.3e}{} without progress (another initial guess may converge: [initialization] fallbacks, seed)",
+            v.constraint.name(),
+            v.value,
+            v.time.map_or(String::new(), |t| format!(" at t = {t:.3} s"))
+        ),
         (status, _) => format!("the solve stopped without converging: {status}"),
     };
     Err(CliError { message, code: exit::NOT_CONVERGED })
@@ -603,7 +615,10 @@ fn solve_stages(
 ) -> Result<Solved, CliError> {
     let refined = loaded.refined.take();
     let first = Stage { offset: 0, last: refined.is_none() };
-    let solved = solve_starts(loaded, streamer, (src, quiet), first)?;
+    let mut solved = solve_starts(loaded, streamer, (src, quiet), first)?;
+    if let Some(arm) = loaded.fallback.as_ref().filter(|_| !solved.solution.converged()) {
+        solved = fall_back(arm, solved, quiet);
+    }
     let Some((factor, plan, mut compiled)) = refined else { return Ok(solved) };
     if solved.solution.status != PtrStatus::Converged {
         say(quiet, "not refined: the first stage did not converge");
@@ -630,6 +645,38 @@ fn solve_stages(
     iterates.extend(more.into_iter().skip(1));
     let solution = armature_arm::join_stages(&coarse, fine);
     Ok(Solved { solution, iterates, starts, retimed: None })
+}
+
+/// The task solved again from its fallback starts ([`armature_arm::solve_fallbacks`]) after
+/// `solved` did not converge, each reported in a line; a kept fallback's solution replaces
+/// the first's (the 3D view then draws the guess alone: the iterates were the first's).
+fn fall_back(arm: &armature_arm::ArmTask, solved: Solved, quiet: bool) -> Solved {
+    say(quiet, &format!("not converged ({}): trying the fallback starts", solved.solution.status));
+    let kept = armature_arm::solve_fallbacks(arm, solved.solution);
+    for (j, s) in kept.tried.iter().enumerate() {
+        let outcome = match &s.outcome {
+            armature_arm::StartOutcome::Solved(status) => status.to_string(),
+            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
+        };
+        let mark = if kept.kept == j + 1 { " (kept)" } else { "" };
+        say(
+            quiet,
+            &format!(
+                "fallback {} (IK samples from seed {}, guess timing × {:.2}): {outcome}, T = {:.4} s, {} iterations{mark}",
+                j + 1,
+                arm.initialization.seed.wrapping_add(j as u64 + 1),
+                s.time_scale,
+                s.final_time,
+                s.iterations
+            ),
+        );
+    }
+    if kept.kept == 0 {
+        return Solved { solution: kept.solution, ..solved };
+    }
+    let mut iterates = solved.iterates;
+    iterates.truncate(1);
+    Solved { solution: kept.solution, iterates, starts: solved.starts, retimed: None }
 }
 
 /// An iterate as the 3D view draws it: the end effector at the nodes (`None` for a problem

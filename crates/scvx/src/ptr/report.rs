@@ -13,6 +13,11 @@ pub enum PtrStatus {
     MaxIterations,
     /// λ_tr hit its cap without an acceptable step.
     Stalled,
+    /// A constraint stayed violated without progress for
+    /// [`infeasible_window`](crate::PtrSettings::infeasible_window) iterations: a local
+    /// infeasibility (the exact penalty is stationary there; the violations name the
+    /// constraint). Another initial guess may converge.
+    LocallyInfeasible,
     /// Clarabel reported the subproblem infeasible.
     SubproblemInfeasible,
     /// Clarabel failed numerically.
@@ -27,12 +32,14 @@ pub enum PtrStatus {
 
 impl PtrStatus {
     /// The status as a stable snake-case word (`converged`, `max_iterations`, `stalled`,
+    /// `locally_infeasible`,
     /// `subproblem_infeasible`, `numerical_failure`, `violated_between_nodes`).
     pub fn as_str(self) -> &'static str {
         match self {
             PtrStatus::Converged => "converged",
             PtrStatus::MaxIterations => "max_iterations",
             PtrStatus::Stalled => "stalled",
+            PtrStatus::LocallyInfeasible => "locally_infeasible",
             PtrStatus::SubproblemInfeasible => "subproblem_infeasible",
             PtrStatus::NumericalFailure => "numerical_failure",
             PtrStatus::ViolatedBetweenNodes => "violated_between_nodes",

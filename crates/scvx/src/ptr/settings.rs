@@ -65,6 +65,17 @@ pub struct PtrSettings {
     pub trust_region: TrustRegionUpdate,
     /// Iteration cap. Default 200 (OpenSCvx's `k_max`).
     pub max_iterations: usize,
+    /// Iterations over which a solve whose constraints stay violated must make progress on
+    /// them: when every reference of the last `infeasible_window` iterations breaks a
+    /// constraint (by more than `eps_vb`, or a defect by more than `eps_defect`) and the least
+    /// violation of the window's second half is not 10 % below that of its first half, the
+    /// solve stops as [`PtrStatus::LocallyInfeasible`](crate::PtrStatus::LocallyInfeasible):
+    /// the exact penalty is stationary where a constraint is violated (its linearizations
+    /// conflict with the others' near this trajectory; another initial guess may not). 0 turns
+    /// the test off. Default 16 (BENCHMARKS.md: no solve of the benchmark suite that
+    /// converges comes near it; solves stuck a few millimetres off a waypoint stop after
+    /// 16 iterations of it instead of running to the cap).
+    pub infeasible_window: usize,
     /// Integrator settings.
     pub discretization: DiscretizationSettings,
     /// Settings of the convex subproblems' solvers.
@@ -438,6 +449,7 @@ impl Default for PtrSettings {
             eps_flat: 3e-3,
             trust_region: TrustRegionUpdate::Adaptive { eta: default_eta() },
             max_iterations: 200,
+            infeasible_window: 16,
             discretization: DiscretizationSettings::default(),
             subproblem: SubproblemSettings::default(),
             dense_dt: 0.01,

@@ -67,6 +67,13 @@ impl Ptr {
             (record, Some(status)) => Ok(self.finish(st, record, status)),
             (record, None) => {
                 st.history.push(record.clone());
+                if locally_infeasible(&st.history, set) {
+                    st.status = Some(PtrStatus::LocallyInfeasible);
+                    if let Some(last) = st.history.last_mut() {
+                        last.status = st.status;
+                    }
+                    return Ok(Iteration { status: st.status, ..record });
+                }
                 Ok(record)
             }
         }
@@ -100,4 +107,43 @@ impl Ptr {
         st.history.push(record.clone());
         record
     }
+}
+
+/// Whether the last [`infeasible_window`](PtrSettings::infeasible_window) iterations of
+/// `history` all broke a constraint (their references: the accepted steps' candidates, the
+/// last accepted one for a refused step) by about as much — the largest violation at most
+/// twice the least — while neither the violation nor the final time made progress: the
+/// second half's least violation is not 10 % below the first half's, and its least final
+/// time not 0.1 % below. Violations are relative to their tolerances (`eps_vb`,
+/// `eps_defect`). A walk that trades violations for time (the final time falling) or whose
+/// violations still move by factors is not stuck.
+pub(super) fn locally_infeasible(history: &[Iteration], set: &PtrSettings) -> bool {
+    let w = set.infeasible_window;
+    if w < 2 || history.len() < w {
+        return false;
+    }
+    let first = history.len() - w;
+    // The reference each record leaves: its own values when accepted, else the last
+    // accepted one's (a refused candidate's violations are not the trajectory's).
+    let mut reference = None;
+    let mut violation = [f64::INFINITY; 2];
+    let mut time = [f64::INFINITY; 2];
+    let mut largest: f64 = 0.0;
+    for (j, r) in history.iter().enumerate() {
+        if r.accepted {
+            let m = (r.max_violation / set.eps_vb).max(r.max_defect / set.eps_defect);
+            reference = Some((m, r.final_time));
+        }
+        let Some(at) = j.checked_sub(first) else { continue };
+        let Some((m, t)) = reference else { return false };
+        if m.is_nan() || m <= 1.0 {
+            return false;
+        }
+        let half = usize::from(at >= w / 2);
+        violation[half] = violation[half].min(m);
+        time[half] = time[half].min(t);
+        largest = largest.max(m);
+    }
+    let pinned = largest <= 2.0 * violation[0].min(violation[1]);
+    pinned && violation[1] >= 0.9 * violation[0] && time[1] >= time[0] * (1.0 - 1e-3)
 }

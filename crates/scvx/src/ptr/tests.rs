@@ -812,3 +812,43 @@ fn peak_envelope_curvature_is_the_peaks_second_derivative() {
         }
     }
 }
+
+/// The local-infeasibility test on made-up histories: a violation pinned for the window while
+/// the final time stands still is stuck; one that shrinks, moves by factors, is traded for
+/// time, or drops within tolerance somewhere in the window is not; a refused step carries the
+/// last accepted reference; window 0 turns the test off.
+#[test]
+fn a_violation_pinned_for_the_window_is_local_infeasibility() {
+    use super::step::locally_infeasible;
+    use super::{Iteration, PtrSettings};
+    let set = PtrSettings::default();
+    let w = set.infeasible_window;
+    let record = |violation: f64, final_time: f64, accepted: bool| {
+        let mut r = Iteration::pending(1, final_time, 1.0, false);
+        (r.accepted, r.max_violation, r.max_defect) = (accepted, violation, 0.0);
+        r
+    };
+    let pinned: Vec<Iteration> = (0..w).map(|_| record(3.8e-4, 1.2, true)).collect();
+    assert!(locally_infeasible(&pinned, &set));
+    assert!(!locally_infeasible(&pinned[1..], &set), "fewer records than the window");
+    let shrinking: Vec<Iteration> =
+        (0..w).map(|k| record(3.8e-4 * 0.95f64.powi(k as i32), 1.2, true)).collect();
+    assert!(!locally_infeasible(&shrinking, &set));
+    let trading: Vec<Iteration> =
+        (0..w).map(|k| record(3.8e-4, 1.2 - 1e-3 * k as f64, true)).collect();
+    assert!(!locally_infeasible(&trading, &set));
+    let mut spiky = pinned.clone();
+    spiky[3] = record(1e-2, 1.2, true);
+    assert!(!locally_infeasible(&spiky, &set), "moves by factors");
+    let mut feasible = pinned.clone();
+    feasible[w - 1] = record(1e-7, 1.2, true);
+    assert!(!locally_infeasible(&feasible, &set));
+    // Refused candidates (their own violations far off) leave the reference pinned.
+    let mut refused = pinned.clone();
+    for r in refused.iter_mut().skip(1).step_by(2) {
+        *r = record(5.0, 0.9, false);
+    }
+    assert!(locally_infeasible(&refused, &set));
+    let off = PtrSettings { infeasible_window: 0, ..set };
+    assert!(!locally_infeasible(&pinned, &off));
+}
