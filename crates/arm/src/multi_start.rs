@@ -57,6 +57,16 @@ pub enum StartOutcome {
     Failed(String),
 }
 
+/// The status word (`converged`, …), or `failed: REASON`.
+impl std::fmt::Display for StartOutcome {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StartOutcome::Solved(status) => write!(f, "{status}"),
+            StartOutcome::Failed(e) => write!(f, "failed: {e}"),
+        }
+    }
+}
+
 /// The best of several starts: its solution and which start it was, and every start's
 /// summary.
 #[derive(Debug, Clone)]

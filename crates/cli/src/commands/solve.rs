@@ -577,10 +577,7 @@ fn choose_start(
     let time = |i: usize, s: &Solution| retimed_time(i).unwrap_or(s.final_time);
     let chosen = armature_arm::best_start_by(ends, time).unwrap_or(0);
     for (i, s) in summaries.iter().enumerate() {
-        let outcome = match &s.outcome {
-            armature_arm::StartOutcome::Solved(status) => status.to_string(),
-            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
-        };
+        let outcome = &s.outcome;
         let again = retimed_time(i).map_or(String::new(), |t| format!(" (retimed {t:.4} s)"));
         let kept = if i == chosen { " (kept)" } else { "" };
         say(
@@ -654,17 +651,14 @@ fn fall_back(arm: &armature_arm::ArmTask, solved: Solved, quiet: bool) -> Solved
     say(quiet, &format!("not converged ({}): trying the fallback starts", solved.solution.status));
     let kept = armature_arm::solve_fallbacks(arm, solved.solution);
     for (j, s) in kept.tried.iter().enumerate() {
-        let outcome = match &s.outcome {
-            armature_arm::StartOutcome::Solved(status) => status.to_string(),
-            armature_arm::StartOutcome::Failed(e) => format!("failed: {e}"),
-        };
+        let outcome = &s.outcome;
         let mark = if kept.kept == j + 1 { " (kept)" } else { "" };
         say(
             quiet,
             &format!(
                 "fallback {} (IK samples from seed {}, guess timing × {:.2}): {outcome}, T = {:.4} s, {} iterations{mark}",
                 j + 1,
-                arm.initialization.seed.wrapping_add(j as u64 + 1),
+                armature_arm::fallback_task(arm, j + 1).initialization.seed,
                 s.time_scale,
                 s.final_time,
                 s.iterations

@@ -68,11 +68,9 @@ impl Ptr {
             (record, None) => {
                 st.history.push(record.clone());
                 if locally_infeasible(&st.history, set) {
-                    st.status = Some(PtrStatus::LocallyInfeasible);
-                    if let Some(last) = st.history.last_mut() {
-                        last.status = st.status;
-                    }
-                    return Ok(Iteration { status: st.status, ..record });
+                    // Recorded again, with its status.
+                    st.history.pop();
+                    return Ok(self.finish(st, record, PtrStatus::LocallyInfeasible));
                 }
                 Ok(record)
             }
