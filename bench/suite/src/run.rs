@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use armature_arm::{ArmTask, join_stages, set_refined_guess};
+use armature_arm::{ArmTask, Refinement, keep_refined, set_refined_guess};
 use armature_scvx::{PtrStatus, Solution};
 use nalgebra::Matrix3;
 use serde::Serialize;
@@ -194,7 +194,8 @@ fn retime(t: &SuiteTask, solution: &Solution, out: &mut Outcome, start: Instant)
 /// Plans and solves a task, from the task's fallback starts too when the first solve does
 /// not converge ([`armature_arm::solve_fallbacks`]); with `refine > 1`, then its refined
 /// task from that solution, returned with the sum of both stages' iterations (a first stage
-/// that does not converge is the outcome). Also the iterations of the starts not kept.
+/// that does not converge is the outcome, and so is a converged first stage whose refined
+/// stage does not converge). Also the iterations of the starts and stages not kept.
 fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>, usize), String> {
     let text = |e: &dyn std::fmt::Display| e.to_string();
     let plan = t.task.plan().map_err(|e| text(&e))?;
@@ -224,7 +225,12 @@ fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>, usize), String> {
     let mut fine = task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
     set_refined_guess(&mut fine, &coarse, t.refine).map_err(|e| text(&e))?;
     let solution = fine.solve().map_err(|e| text(&e))?;
-    Ok((join_stages(&coarse, solution), Some(task), extra))
+    // As the CLI: a refined stage that does not converge leaves the first stage's result,
+    // its iterations counted.
+    Ok(match keep_refined(coarse, solution) {
+        Refinement::Refined(both) => (both, Some(task), extra),
+        Refinement::KeptFirstStage { first, refined } => (first, None, extra + refined.iterations),
+    })
 }
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {

@@ -1,12 +1,13 @@
 //! Mesh refinement: the seed solved on its 16 nodes, then again from that solution on 31
 //! nodes ([`ArmTask::refined`](armature_arm::ArmTask::refined),
-//! [`armature_arm::set_refined_guess`]). The finer control reaches a faster motion than two
-//! pieces per segment allow, every constraint still held on the dense trajectory. In a task
-//! file: `[nodes] refine = 2`.
+//! [`armature_arm::set_refined_guess`]). The finer control reaches a faster motion than three
+//! pieces per segment allow, every constraint still held on the dense trajectory; a refined
+//! stage that did not converge would leave the first stage's result
+//! ([`armature_arm::keep_refined`]). In a task file: `[nodes] refine = 2`.
 //!
 //! `cargo run --release -p armature-arm --example mesh_refinement`
 
-use armature_arm::{fixtures, join_stages, set_refined_guess};
+use armature_arm::{Refinement, fixtures, keep_refined, set_refined_guess};
 use armature_scvx::PtrStatus;
 
 /// Runs the example (its asserts are its test: `tests/gallery.rs`).
@@ -16,7 +17,9 @@ pub(crate) fn main() {
     let fine_task = seed.refined(2);
     let mut fine = fine_task.plan().unwrap().compile().unwrap();
     set_refined_guess(&mut fine, &coarse, 2).unwrap();
-    let both = join_stages(&coarse, fine.solve().unwrap());
+    let Refinement::Refined(both) = keep_refined(coarse.clone(), fine.solve().unwrap()) else {
+        panic!("the seed's refined stage converges");
+    };
     println!(
         "{} nodes: T = {:.4} s after {} iterations; {} nodes: T = {:.4} s after {} in all ({})",
         seed.nodes,

@@ -132,6 +132,70 @@ impl<'a> Coarse<'a> {
     }
 }
 
+/// What a mesh refinement keeps ([`keep_refined`]): the two stages joined, or the first
+/// stage's result when the refined stage did not converge.
+#[derive(Debug, Clone)]
+pub enum Refinement {
+    /// The refined stage converged: both stages as one solution ([`join_stages`]).
+    Refined(Solution),
+    /// The refined stage did not converge: the first stage's solution, unchanged, and the
+    /// refined stage's (its status, violations and iterations say why and at what cost).
+    KeptFirstStage {
+        /// The first stage's solution.
+        first: Solution,
+        /// The refined stage's solution, not kept.
+        refined: Box<Solution>,
+    },
+}
+
+impl Refinement {
+    /// The kept solution.
+    pub fn solution(&self) -> &Solution {
+        match self {
+            Refinement::Refined(s) | Refinement::KeptFirstStage { first: s, .. } => s,
+        }
+    }
+
+    /// The kept solution, by value.
+    pub fn into_solution(self) -> Solution {
+        match self {
+            Refinement::Refined(s) | Refinement::KeptFirstStage { first: s, .. } => s,
+        }
+    }
+}
+
+/// A refinement never loses a converged result: the refined stage `fine` is kept (joined to
+/// `coarse`, [`join_stages`]) when it converged, otherwise `coarse` is (a refined stage can
+/// fail where the first converged: the finer grid's rows are new constraints, and its walk
+/// another one; the suite saw one such task of 162, BENCHMARKS.md).
+///
+/// # Example
+/// ```
+/// use armature_arm::Refinement;
+///
+/// let seed = armature_arm::fixtures::pick_and_place();
+/// let coarse = seed.plan()?.compile()?.solve()?;
+/// let mut capped = seed.refined(2);
+/// capped.settings.max_iterations = 2;
+/// let mut fine = capped.plan()?.compile()?;
+/// armature_arm::set_refined_guess(&mut fine, &coarse, 2)?;
+/// match armature_arm::keep_refined(coarse.clone(), fine.solve()?) {
+///     Refinement::KeptFirstStage { first, refined } => {
+///         assert_eq!(first.final_time, coarse.final_time);
+///         assert!(!refined.converged());
+///     }
+///     Refinement::Refined(_) => panic!("two iterations do not converge a refined stage"),
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn keep_refined(coarse: Solution, fine: Solution) -> Refinement {
+    if fine.converged() {
+        Refinement::Refined(join_stages(&coarse, fine))
+    } else {
+        Refinement::KeptFirstStage { first: coarse, refined: Box::new(fine) }
+    }
+}
+
 /// The outcome of a two-stage solve as one [`Solution`]: the refined stage's trajectory,
 /// status and violations, with the iterations, the history (the refined stage's records
 /// numbered on from the coarse stage's) and the timings of both stages.

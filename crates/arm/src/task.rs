@@ -337,6 +337,12 @@ impl ArmTask {
     /// BENCHMARKS.md); with refine 3 the integral let one arm7 task's joint pass its angle
     /// limit by 2.65e-4 rad.
     ///
+    /// The integration grid keeps its step length for the decoupled model (RK4 steps per
+    /// interval `⌈substeps / factor⌉`, as [`resegmented`](Self::resegmented) keeps them: that
+    /// model is linear, RK4 integrates it exactly at any step, and the grid-point rows then
+    /// sit as densely as on the coarse grid); a rigid-body task keeps its steps per interval,
+    /// which its accuracy needs.
+    ///
     /// # Example
     /// ```
     /// let ur5e = armature_arm::fixtures::ur5e_rigid_body();
@@ -345,8 +351,23 @@ impl ArmTask {
     /// assert!(fine.velocity_limit_peaks && fine.angle_limit_peaks);
     /// assert!(!ur5e.angle_limit_peaks);
     /// assert_eq!(fine.nodes, ur5e.subdivided(2).nodes);
+    /// let steps = |t: &armature_arm::ArmTask| t.settings.discretization.substeps;
+    /// assert_eq!(steps(&fine), steps(&ur5e));
+    ///
+    /// let seed = armature_arm::fixtures::pick_and_place();
+    /// assert_eq!(steps(&seed), 7);
+    /// assert_eq!(steps(&seed.refined(2)), 4); // ⌈7 / 2⌉
     /// ```
     pub fn refined(&self, factor: usize) -> ArmTask {
-        ArmTask { velocity_limit_peaks: true, angle_limit_peaks: true, ..self.subdivided(factor) }
+        let mut t = ArmTask {
+            velocity_limit_peaks: true,
+            angle_limit_peaks: true,
+            ..self.subdivided(factor)
+        };
+        if let DynamicsModel::DecoupledInertia(_) = self.dynamics {
+            let steps = &mut t.settings.discretization.substeps;
+            *steps = steps.div_ceil(factor.max(1)).max(1);
+        }
+        t
     }
 }

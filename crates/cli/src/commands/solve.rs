@@ -604,7 +604,8 @@ struct Solved {
 }
 
 /// Solves the task, and with a refinement then the refined task from that solution (when
-/// the first stage converged), which takes the place of the first in `loaded`.
+/// the first stage converged), which takes the place of the first in `loaded` when it
+/// converges too (otherwise the first stage's result is kept).
 fn solve_stages(
     loaded: &mut Loaded,
     streamer: &mut Option<Streamer>,
@@ -635,12 +636,30 @@ fn solve_stages(
             plan.nodes
         ),
     );
-    (loaded.plan, loaded.compiled) = (Some(plan), compiled);
+    let first_stage =
+        (loaded.plan.replace(plan), std::mem::replace(&mut loaded.compiled, compiled));
     let second = Stage { offset: coarse.iterations, last: true };
     let (fine, more) = solve_observed(loaded, streamer, (src, quiet), second)?;
-    // The guess's iterate of the second stage is the first stage's result: not drawn again.
-    iterates.extend(more.into_iter().skip(1));
-    let solution = armature_arm::join_stages(&coarse, fine);
+    let solution = match armature_arm::keep_refined(coarse, fine) {
+        armature_arm::Refinement::Refined(both) => {
+            // The guess's iterate of the second stage is the first stage's result: not
+            // drawn again.
+            iterates.extend(more.into_iter().skip(1));
+            both
+        }
+        armature_arm::Refinement::KeptFirstStage { first, refined } => {
+            say(
+                quiet,
+                &format!(
+                    "the refined stage did not converge ({}, {} iterations): keeping the first stage's result",
+                    refined.status, refined.iterations
+                ),
+            );
+            // With the plan and the problem that describe it.
+            (loaded.plan, loaded.compiled) = first_stage;
+            first
+        }
+    };
     Ok(Solved { solution, iterates, starts, retimed: None })
 }
 
