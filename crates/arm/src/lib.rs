@@ -24,7 +24,9 @@ pub use multi_start::{
     solve_starts_with, start_time_scale, summarize,
 };
 pub use plan::{ArmPlan, set_retime_stall, waypoint_parameter};
-pub use refine::{Refinement, join_stages, keep_refined, set_refined_guess};
+pub use refine::{
+    REFINED_TRUST_REGION_WEIGHT, Refinement, join_stages, keep_refined, set_refined_guess,
+};
 pub use retime::{RetimeStall, Retimed};
 pub use task::{
     ArmTask, Clearance, DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT, DynamicsModel, Initialization,

@@ -101,6 +101,7 @@ impl RetimedResult {
             timings: solution.timings,
             violations: solution.violations.clone(),
             max_violation: solution.max_violation.clone(),
+            prices: solution.prices.clone(),
         }
     }
 }

@@ -27,8 +27,8 @@ pub use ipm::IpmSettings;
 pub use problem::{CompiledProblem, Monitor, Steer};
 pub use ptr::{
     ClarabelSettings, CorrectionSolve, Increment, IntervalConstraint, Merit, NodalConstraint,
-    NodalKind, Ocp, Ptr, PtrSettings, Sampling, SettingsError, SubproblemDimensions,
-    SubproblemSettings, SubproblemSolver, TrustRegionUpdate,
+    NodalKind, Ocp, PeakBound, PricedRow, Prices, Ptr, PtrSettings, Sampling, SettingsError,
+    SubproblemDimensions, SubproblemSettings, SubproblemSolver, TrustRegionUpdate,
 };
 
 // Results: statuses, records, violations, solutions and errors.

@@ -527,6 +527,7 @@ impl CompiledProblem {
             },
             violations,
             max_violation,
+            prices: r.prices.clone(),
         })
     }
 }

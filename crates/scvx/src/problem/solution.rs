@@ -50,6 +50,11 @@ pub struct Solution {
     pub violations: Vec<Violation>,
     /// The largest positive violation, if any.
     pub max_violation: Option<Violation>,
+    /// The exact-penalty prices and the trust-region weight the solve ended with: what the
+    /// same task on another grid can start from ([`Ptr::set_starting_prices`](crate::Ptr::set_starting_prices)).
+    /// Not serialized.
+    #[serde(skip)]
+    pub prices: crate::Prices,
 }
 
 /// Wall-clock totals of a solve (ms).

@@ -128,6 +128,7 @@ impl Ptr {
             exact,
             state: None,
             cost_on: true,
+            starting: StartingPrices::default(),
         })
     }
 }

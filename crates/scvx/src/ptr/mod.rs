@@ -170,6 +170,8 @@ pub struct Ptr {
     /// Whether the running solve still minimizes its cost; `false` once
     /// [`restore_feasibility_only`](Self::restore_feasibility_only) dropped it.
     cost_on: bool,
+    /// The prices a solve starts from besides the settings' ([`Ptr::set_starting_prices`]).
+    starting: StartingPrices,
 }
 
 impl Ptr {
@@ -254,6 +256,7 @@ mod iterate;
 mod merit;
 mod peak_curvature;
 mod peak_envelope;
+mod prices;
 mod psd;
 mod quasi_newton;
 mod report;
@@ -271,6 +274,8 @@ use backend::*;
 use evaluate::*;
 use iterate::*;
 use merit::*;
+use prices::StartingPrices;
+pub use prices::{PeakBound, PricedRow, Prices};
 pub use report::*;
 use rows::*;
 pub use settings::*;

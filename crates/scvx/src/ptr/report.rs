@@ -185,6 +185,9 @@ pub struct PtrResult {
     pub max_violation: Option<Violation>,
     /// Wall-clock totals.
     pub timings: Timings,
+    /// The exact-penalty prices and the trust-region weight it ended with (not serialized).
+    #[serde(skip)]
+    pub prices: Prices,
 }
 
 /// Sizes of the convex subproblem `min ½zᵀPz + qᵀz s.t. Az + s = b, s ∈ K`.

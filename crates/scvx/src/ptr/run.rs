@@ -60,6 +60,7 @@ impl Ptr {
         st.lam_vc.fill(self.settings.lam_vc);
         st.lam_vb.fill(self.settings.lam_vb);
         st.lam_tr = self.settings.lam_tr;
+        self.apply_starting_prices(&mut st);
         self.cost_on = true;
         // A new solve does not warm-start from the last one's subproblem.
         if let Some(native) = st.native.as_mut() {
@@ -228,7 +229,7 @@ impl Ptr {
             .filter(|v| v.value > 0.0)
             .max_by(|a, b| a.value.total_cmp(&b.value))
             .cloned();
-        let r = PtrResult {
+        let mut r = PtrResult {
             status: st.status.unwrap_or(PtrStatus::MaxIterations),
             x: st.xb.clone(),
             u: st.ub.clone(),
@@ -238,8 +239,10 @@ impl Ptr {
             violations,
             max_violation,
             timings: st.timings,
+            prices: Prices::default(),
         };
         self.state = Some(st);
+        r.prices = self.prices().unwrap_or_default();
         Some(r)
     }
 

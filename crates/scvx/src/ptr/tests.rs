@@ -364,6 +364,23 @@ fn damped_bfgs_refuses_a_zero_step() {
     assert_eq!(h, vec![1.0, 0.0, 0.0, 1.0]);
 }
 
+/// A nodal constraint `f` of the double integrator's `groups` (`[p, v], [a]`) at `nodes`.
+fn nodal_constraint(
+    name: &str,
+    f: Expr,
+    groups: &[&[Expr]],
+    nodes: Vec<usize>,
+    kind: super::NodalKind,
+) -> super::NodalConstraint {
+    super::NodalConstraint {
+        name: name.into(),
+        function: Function::compile(&[f], groups).unwrap(),
+        nodes,
+        kind,
+        output_names: vec![],
+    }
+}
+
 /// The double integrator made nonlinear (`v̇ = a − ½·sin(p)·v`), with the interval constraint
 /// `v² + 0.3·sin p − 0.25 ≤ 0` on the `intervals` segments, an inequality `ineq(p, v, a) ≤ 0`
 /// at nodes 1 and 2 and a ball `‖(p·v, cos p − v²)‖ ≤ 0.5` at node 3: curvature in every row
@@ -373,7 +390,7 @@ fn curved_problem(
     intervals: Vec<usize>,
     ineq: impl Fn(&Expr, &Expr, &Expr) -> Expr,
 ) -> super::Ocp {
-    use super::{NodalConstraint, NodalKind};
+    use super::NodalKind;
     let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.3) - 0.25;
     let mut ocp = double_integrator(nodes, 10.0, [None, None], g, intervals);
     let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
@@ -382,12 +399,8 @@ fn curved_problem(
         Dynamics::new(&[p.clone(), v.clone()], &[a.clone()], &[v.clone(), vdot], &[true]).unwrap();
     let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a.clone()]];
     let ball = Expr::concat(&[&p * &v, &p.cos() - &(&v * &v)]);
-    let nodal = |name: &str, f: Expr, nodes: Vec<usize>, kind| NodalConstraint {
-        name: name.into(),
-        function: Function::compile(&[f], groups).unwrap(),
-        nodes,
-        kind,
-        output_names: vec![],
+    let nodal = |name: &str, f: Expr, nodes: Vec<usize>, kind| {
+        nodal_constraint(name, f, groups, nodes, kind)
     };
     ocp.nodal = vec![
         nodal("ineq", ineq(&p, &v, &a), vec![1, 2], NodalKind::Inequality),
@@ -851,4 +864,95 @@ fn a_violation_pinned_for_the_window_is_local_infeasibility() {
     assert!(locally_infeasible(&refused, &set));
     let off = PtrSettings { infeasible_window: 0, ..set };
     assert!(!locally_infeasible(&pinned, &off));
+}
+
+/// A solve's prices are named by the rows they price — each nodal constraint's output at
+/// its node (a ball's norm as one), each bound between the nodes on its segment — one per
+/// buffer in buffer order; a solve started from given prices starts at them (never below
+/// the settings', bad entries ignored, the trust region clamped), and the same problem
+/// started from its own final prices buys no more than it must: it converges in fewer
+/// iterations than from the settings' prices.
+#[test]
+fn prices_are_named_by_their_rows_and_start_the_next_solve() {
+    use super::{NodalKind, PeakBound, PricedRow, Ptr, PtrSettings};
+    // v² + 0.1·sin(p) ≤ 0.25 between the nodes, |v| ≤ 0.45 there too, 0 → 1 m at rest;
+    // p ≤ 0.8 and v ≤ 0.4 at nodes 1 and 2, (p, v) within 0.6 of (0.5, 0) at node 3.
+    let nodes = 6;
+    let g = |p: &Expr, v: &Expr| &(v * v) + &(&p.sin() * 0.1) - 0.25;
+    let mut ocp = double_integrator(nodes, 0.45, [Some(1.0), Some(0.0)], g, vec![1]);
+    let (p, v, a) = (Expr::variable("p", 1), Expr::variable("v", 1), Expr::variable("a", 1));
+    let groups: &[&[Expr]] = &[&[p.clone(), v.clone()], &[a]];
+    let nodal = |name: &str, f: Expr, nodes: Vec<usize>, kind| {
+        nodal_constraint(name, f, groups, nodes, kind)
+    };
+    let ineq = Expr::concat(&[&p - 0.8, &v - 0.4]);
+    let ball = Expr::concat(&[&p - 0.5, v.clone()]);
+    ocp.nodal = vec![
+        nodal("ineq", ineq, vec![1, 2], NodalKind::Inequality),
+        nodal("ball", ball, vec![3], NodalKind::Ball { radius: 0.6 }),
+    ];
+    let settings = PtrSettings { max_iterations: 120, ..PtrSettings::default() };
+    let mut ptr = Ptr::new(ocp, settings.clone()).unwrap();
+    let rows = ptr.priced_rows();
+    assert_eq!(rows.len(), ptr.buffers.len() + ptr.peak_buffers());
+    let nodal = |constraint, node, output| PricedRow::Nodal { constraint, node, output };
+    let expected_nodal =
+        [nodal(0, 1, Some(0)), nodal(0, 1, Some(1)), nodal(0, 2, Some(0)), nodal(0, 2, Some(1))];
+    assert_eq!(&rows[..4], &expected_nodal);
+    assert_eq!(rows[4], nodal(1, 3, None));
+    let between = |bound, segment| PricedRow::BetweenNodes { bound, segment };
+    for segment in 0..nodes - 1 {
+        for upper in [false, true] {
+            let velocity = between(PeakBound::State { row: 1, upper }, segment);
+            assert_eq!(rows.iter().filter(|r| **r == velocity).count(), 1, "{velocity:?}");
+        }
+        let g = between(PeakBound::Function { constraint: 0, output: 0 }, segment);
+        assert_eq!(rows.iter().filter(|r| **r == g).count(), 1, "{g:?}");
+    }
+    assert!(ptr.prices().is_none(), "no prices before a solve");
+
+    let x: Vec<f64> = (0..nodes).flat_map(|k| [k as f64 / (nodes - 1) as f64, 0.0]).collect();
+    let (u, s) = (vec![0.0; nodes], vec![3.0; nodes]);
+    let first = ptr.solve(&x, &u, &s).unwrap();
+    assert_eq!(first.status, super::PtrStatus::Converged, "{:?}", first.max_violation);
+    let prices = first.prices.clone();
+    let named: Vec<PricedRow> = prices.rows.iter().map(|r| r.0).collect();
+    assert_eq!(named, rows);
+    assert!(prices.rows.iter().all(|r| r.1 >= settings.lam_vb));
+    assert!(prices.rows.iter().any(|r| r.1 > settings.lam_vb), "no price was raised");
+    assert_eq!(prices.state_rows.len(), 2);
+
+    // Started from given prices: where given, at them (never below the settings'); a NaN,
+    // a negative price and a state-row list of the wrong length are ignored.
+    let given = |row: PricedRow| match row {
+        PricedRow::Nodal { node: 1, .. } => Some(7.0),
+        PricedRow::Nodal { node: 2, .. } => Some(f64::NAN),
+        PricedRow::Nodal { .. } => Some(-1.0),
+        PricedRow::BetweenNodes { segment, .. } => Some(0.01 + segment as f64),
+    };
+    ptr.set_starting_prices(&[5.0], given, Some(1e9));
+    ptr.start(&x, &u, &s).unwrap();
+    let started = ptr.prices().unwrap();
+    for (row, price) in &started.rows {
+        let want = match given(*row) {
+            Some(p) if p.is_finite() && p > 0.0 => p.max(settings.lam_vb),
+            _ => settings.lam_vb,
+        };
+        assert_eq!(*price, want, "{row:?}");
+    }
+    assert!(started.state_rows.iter().all(|&p| p == settings.lam_vc));
+    assert_eq!(started.trust_region, settings.lam_tr_max);
+
+    // From its own final prices (and a trust region as loose as the solve ended with), the
+    // same problem converges again in fewer iterations.
+    let own = |row: PricedRow| prices.rows.iter().find(|r| r.0 == row).map(|r| r.1);
+    ptr.set_starting_prices(&prices.state_rows, own, Some(prices.trust_region));
+    let again = ptr.solve(&x, &u, &s).unwrap();
+    assert_eq!(again.status, super::PtrStatus::Converged);
+    assert!(
+        again.history.len() < first.history.len(),
+        "{} iterations from its own prices, {} from the settings'",
+        again.history.len(),
+        first.history.len()
+    );
 }
