@@ -16,7 +16,9 @@ type Table = Vec<Vec<f64>>;
 /// Hermite in the angles, linear in the velocities, between the two dense samples around
 /// it) and the torques `(1 − w)·u_k + w·u_{k+1}` of the coarse first-order hold, which the
 /// finer hold represents exactly; each segment's duration is split evenly. The guess is
-/// then the coarse trajectory itself, up to the dense samples' interpolation.
+/// then the coarse trajectory itself, up to the dense samples' interpolation. The refined
+/// stage also starts from `coarse`'s exact-penalty prices, mapped to the finer grid's rows
+/// ([`Solution::prices`], [`REFINED_TRUST_REGION_WEIGHT`]).
 ///
 /// # Errors
 /// [`ProblemError::Bad`] when `coarse` lacks the arm's tables (`time`, `angle`, `velocity`,
@@ -83,8 +85,11 @@ pub const REFINED_TRUST_REGION_WEIGHT: f64 = 0.004;
 /// refined stage's first steps bought buffers at their starting price (from the converged
 /// coarse path, T 6 % lower, violations 6e-2) and its next iterations paid them back
 /// (BENCHMARKS.md).
+/// A coarse solution without prices (built by hand, or read back from a file) leaves the
+/// refined stage the settings' prices and trust region.
 fn carry_prices(fine: &mut CompiledProblem, coarse: &Prices, factor: usize) {
     if coarse.rows.is_empty() && coarse.state_rows.is_empty() {
+        fine.ptr().set_starting_prices(&[], |_| None, None);
         return;
     }
     let by_row: HashMap<PricedRow, f64> = coarse.rows.iter().copied().collect();

@@ -77,10 +77,11 @@ fn the_refined_stage_starts_from_the_coarse_prices() {
     let mut fine = fine_task.plan().unwrap().compile().unwrap();
     set_refined_guess(&mut fine, &coarse, 2).unwrap();
     let carried = fine.solve().unwrap();
-    // The same stage from the settings' prices and trust region (after the guess, which
-    // carries the prices).
-    set_refined_guess(&mut fine, &coarse, 2).unwrap();
-    fine.ptr().set_starting_prices(&[], |_| None, None);
+    // The same stage from the settings' prices and trust region: a coarse solution without
+    // prices (as one read back from a file) carries none.
+    let mut unpriced = coarse.clone();
+    unpriced.prices = Default::default();
+    set_refined_guess(&mut fine, &unpriced, 2).unwrap();
     let fresh = fine.solve().unwrap();
     assert_eq!((carried.status, fresh.status), (PtrStatus::Converged, PtrStatus::Converged));
     let (bought, bought_fresh) = (carried.history[0].j_vb, fresh.history[0].j_vb);
