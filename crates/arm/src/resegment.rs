@@ -1,6 +1,6 @@
 //! The same task on another number of nodes per waypoint segment.
 
-use crate::{ArmError, ArmTask, DynamicsModel, TaskItem};
+use crate::{ArmError, ArmTask, TaskItem};
 
 impl ArmTask {
     /// The same task with `per_segment` intervals between consecutive waypoints: node `k`
@@ -58,11 +58,7 @@ impl ArmTask {
             (o.first, o.last) = (at(o.first), at(o.last));
         }
         let steps = &mut t.settings.discretization.substeps;
-        let kept_length = (*steps * p).div_ceil(per_segment).max(1);
-        *steps = match self.dynamics {
-            DynamicsModel::RigidBody { .. } => kept_length.max(*steps),
-            DynamicsModel::DecoupledInertia(_) => kept_length,
-        };
+        *steps = self.dynamics.steps_when_split(*steps, p, per_segment);
         Ok(t)
     }
 

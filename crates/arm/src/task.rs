@@ -123,6 +123,18 @@ impl DynamicsModel {
         }
     }
 
+    /// RK4 steps per node interval once `from` intervals of `steps` each become `to`
+    /// (`from, to ≥ 1`): the grid's step length kept for the decoupled model (`⌈steps·from /
+    /// to⌉`; it is linear, and RK4 integrates it exactly at any step), never fewer than
+    /// `steps` for the rigid-body model, whose accuracy needs the short step.
+    pub(crate) fn steps_when_split(&self, steps: usize, from: usize, to: usize) -> usize {
+        let kept_length = (steps * from).div_ceil(to).max(1);
+        match self {
+            DynamicsModel::RigidBody { .. } => kept_length.max(steps),
+            DynamicsModel::DecoupledInertia(_) => kept_length,
+        }
+    }
+
     /// Whether a task with this model bounds its velocities at every integration grid
     /// point by default ([`ArmTask::velocity_limit_peaks`]): yes for the decoupled model,
     /// whose velocity rows each read one joint; no for the rigid-body model, whose rows each
@@ -364,10 +376,8 @@ impl ArmTask {
             angle_limit_peaks: true,
             ..self.subdivided(factor)
         };
-        if let DynamicsModel::DecoupledInertia(_) = self.dynamics {
-            let steps = &mut t.settings.discretization.substeps;
-            *steps = steps.div_ceil(factor.max(1)).max(1);
-        }
+        let steps = &mut t.settings.discretization.substeps;
+        *steps = self.dynamics.steps_when_split(*steps, 1, factor.max(1));
         t
     }
 }

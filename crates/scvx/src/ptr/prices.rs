@@ -101,9 +101,13 @@ impl Ptr {
 
     /// The prices the running (or last) solve holds, named; `None` before a first solve.
     pub fn prices(&self) -> Option<Prices> {
-        let st = self.state.as_ref()?;
+        self.state.as_ref().map(|st| self.prices_of(st))
+    }
+
+    /// The prices `st` holds, named.
+    pub(super) fn prices_of(&self, st: &Iterate) -> Prices {
         let rows = self.priced_rows().into_iter().zip(st.lam_vb.iter().copied()).collect();
-        Some(Prices { state_rows: st.lam_vc.clone(), rows, trust_region: st.lam_tr })
+        Prices { state_rows: st.lam_vc.clone(), rows, trust_region: st.lam_tr }
     }
 
     /// The prices the next solves start from instead of the settings' `lam_vc`, `lam_vb`

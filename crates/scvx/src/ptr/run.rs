@@ -229,7 +229,7 @@ impl Ptr {
             .filter(|v| v.value > 0.0)
             .max_by(|a, b| a.value.total_cmp(&b.value))
             .cloned();
-        let mut r = PtrResult {
+        let r = PtrResult {
             status: st.status.unwrap_or(PtrStatus::MaxIterations),
             x: st.xb.clone(),
             u: st.ub.clone(),
@@ -239,10 +239,9 @@ impl Ptr {
             violations,
             max_violation,
             timings: st.timings,
-            prices: Prices::default(),
+            prices: self.prices_of(&st),
         };
         self.state = Some(st);
-        r.prices = self.prices().unwrap_or_default();
         Some(r)
     }
 
