@@ -38,7 +38,8 @@ pub struct SuiteTask {
     /// Built to be infeasible, and why.
     pub infeasible: Option<&'static str>,
     /// Mesh refinement: solved on `task`'s grid, then on the grid `refine` times finer
-    /// (`ArmTask::refined`) from that solution (1: once, on `task`'s grid).
+    /// (`ArmTask::refined`) from that solution (1: once, on `task`'s grid). By default its
+    /// dynamics model's (`DynamicsModel::default_refine`), as the CLI's.
     pub refine: usize,
     /// Retime the converged solution along its path (`ArmTask::retime`) and report, and
     /// verify, the retimed trajectory.
@@ -217,14 +218,14 @@ fn iiwa_task(rng: &mut Pcg64Mcg) -> Option<ArmTask> {
 pub fn suite() -> Vec<SuiteTask> {
     let mut rng = Pcg64Mcg::seed_from_u64(SEED);
     let mut out = Vec::new();
-    let entry = |group, name: String, task, robot, balls| SuiteTask {
+    let entry = |group, name: String, task: ArmTask, robot, balls| SuiteTask {
         group,
         name,
+        refine: task.dynamics.default_refine(),
         task,
         robot,
         balls,
         infeasible: None,
-        refine: 1,
         retime: false,
     };
     out.push(entry("seed", "seed".into(), fixtures::pick_and_place(), Robot::Arm7, vec![]));
@@ -283,14 +284,14 @@ fn infeasible() -> Vec<SuiteTask> {
     out_of_reach.waypoints[5].position = [1.5, 0.25, 0.05];
     let mut ur_out_of_reach = fixtures::ur5e_rigid_body();
     ur_out_of_reach.waypoints[3].position = [-1.2, 0.3, 0.1];
-    let entry = |name: &str, task, robot, balls, why| SuiteTask {
+    let entry = |name: &str, task: ArmTask, robot, balls, why| SuiteTask {
         group: "infeasible",
         name: name.into(),
+        refine: task.dynamics.default_refine(),
         task,
         robot,
         balls,
         infeasible: Some(why),
-        refine: 1,
         retime: false,
     };
     vec![

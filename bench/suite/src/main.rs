@@ -18,7 +18,9 @@
 //! for the decoupled model, 2 for the rigid-body one), the integration's step length kept (`ArmTask::resegmented`); `--subdivide K` splits every
 //! segment into K, `--refine K` solves each
 //! task and then again on a grid K times finer from that solution (`ArmTask::refined`,
-//! `armature_arm::set_refined_guess`; iterations and time count both stages), `--starts K`
+//! `armature_arm::set_refined_guess`; iterations and time count both stages; by default each
+//! task's model's factor, `DynamicsModel::default_refine`, as the CLI's: 2 for the decoupled
+//! model, 1 for the rigid-body one; `--refine 1` solves every task once), `--starts K`
 //! solves each task's first stage from K timings of its guess in parallel and keeps the best
 //! (`ArmPlan::solve_multi_start`; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);

@@ -23,8 +23,9 @@ pub struct Study {
     /// task's own default).
     pub time_scaled: Option<bool>,
     /// Mesh refinement: every task solved, then solved again on a grid this many times
-    /// finer from that solution (1: once).
-    pub refine: usize,
+    /// finer from that solution (1: once; `None`: each task's model's default,
+    /// `DynamicsModel::default_refine`).
+    pub refine: Option<usize>,
     /// Starts of every task's first solve (`Initialization::starts`; 1: the guess alone).
     pub starts: usize,
     /// The rule by which every task's solve stops minimizing once its path retimed stalls
@@ -50,7 +51,7 @@ impl Study {
     ) -> Result<Self, String> {
         let factor = |flag: &str, k| count(flag, k).map(|k| k.unwrap_or(1));
         let subdivide = factor("--subdivide", subdivide)?;
-        let refine = factor("--refine", refine)?;
+        let refine = count("--refine", refine)?;
         let starts = factor("--starts", starts)?;
         let settings = match settings {
             None => None,
@@ -151,7 +152,9 @@ impl Study {
         if self.subdivide > 1 {
             t.task = t.task.subdivided(self.subdivide);
         }
-        t.refine = self.refine;
+        if let Some(k) = self.refine {
+            t.refine = k;
+        }
         t.task.initialization.starts = self.starts;
         if let Some(seed) = self.ik_seed {
             t.task.initialization.seed = seed;
@@ -225,7 +228,7 @@ mod tests {
         .unwrap();
         let t = study.apply(task.clone()).unwrap();
         assert_eq!(t.task.nodes, 2 * (nodes - 1) + 1);
-        assert_eq!((t.refine, task.refine), (3, 1));
+        assert_eq!((t.refine, task.refine), (3, 2));
         assert_eq!((t.task.initialization.starts, task.task.initialization.starts), (3, 1));
         assert!(!t.task.velocity_limit_peaks && task.task.velocity_limit_peaks);
         let own = Study::from_args((None, None, None), None, None).unwrap();

@@ -175,6 +175,9 @@ fn an_outcome_keeps_the_solvers_iteration_records() {
     for it in &outcome.history {
         armature_scvx::IterationTable::row(&mut table, it).unwrap();
     }
+    // The task refines by default: each stage's last record says how its loop stopped.
+    let ends = outcome.history.iter().filter(|it| it.status.is_some()).count();
+    assert_eq!((task.refine, ends), (2, 2));
     let text = String::from_utf8(table).unwrap();
-    assert_eq!(text.lines().count(), 1 + outcome.iterations + 1, "{text}");
+    assert_eq!(text.lines().count(), 1 + outcome.iterations + ends, "{text}");
 }

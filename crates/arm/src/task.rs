@@ -100,6 +100,29 @@ impl DynamicsModel {
         }
     }
 
+    /// The factor of the mesh refinement by default ([`ArmTask::refined`]): 2 for the
+    /// decoupled model, 1 (one stage) for the rigid-body one. A solve on the model's nodes
+    /// finds the basin; solved again from it on a grid twice as fine
+    /// ([`crate::set_refined_guess`], starting from its prices), the decoupled tasks of the
+    /// benchmark suite end at a median 1.005 × T_ref instead of 1.022 (the seed 1.049 s
+    /// instead of 1.075) for about 1.7 times the solve time; the rigid-body model's refined
+    /// stage costs seven times its first solve for a 7 % gain (BENCHMARKS.md, 2026-12-08,
+    /// "refinement by default").
+    ///
+    /// # Example
+    /// ```
+    /// use armature_arm::DynamicsModel;
+    ///
+    /// assert_eq!(DynamicsModel::DecoupledInertia(vec![1.0]).default_refine(), 2);
+    /// assert_eq!(DynamicsModel::RigidBody { gravity: [0.0, 0.0, -9.81] }.default_refine(), 1);
+    /// ```
+    pub fn default_refine(&self) -> usize {
+        match self {
+            DynamicsModel::DecoupledInertia(_) => 2,
+            DynamicsModel::RigidBody { .. } => 1,
+        }
+    }
+
     /// RK4 steps per node interval by default for `per_segment` intervals between two
     /// waypoints: [`DECOUPLED_STEPS_PER_WAYPOINT_SEGMENT`] shared by them for the decoupled
     /// model (10 with 2 intervals, 7 with 3), [`RIGID_BODY_SUBSTEPS`] per interval for the

@@ -371,16 +371,21 @@ fn retime_stall(task: &TaskFile, src: Source<'_>) -> Result<Option<RetimeStall>,
     Ok(on.then(RetimeStall::default))
 }
 
-/// `[nodes] refine`: the factor of the mesh refinement (1 when not given), checked against
-/// the node count.
+/// `[nodes] refine`: the factor of the mesh refinement, checked against the node count; when
+/// not given, the dynamics model's (`DynamicsModel::default_refine`: 2 decoupled, 1
+/// rigid-body), or 1 where that grid would pass the node limit.
 ///
 /// # Errors
 /// A factor below 1 or above 16, or a refined grid beyond the node limit.
 pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedError> {
-    let Some(r) = &task.nodes.refine else { return Ok(1) };
-    let (nodes, _) = node_count(task, dynamics_model(task, src)?.default_per_segment(), src)?;
-    let k = *r.get_ref();
+    let dynamics = dynamics_model(task, src)?;
+    let (nodes, _) = node_count(task, dynamics.default_per_segment(), src)?;
     let max = armature_scvx::MAX_NODES;
+    let Some(r) = &task.nodes.refine else {
+        let k = dynamics.default_refine();
+        return Ok(if (nodes - 1) * k < max { k } else { 1 });
+    };
+    let k = *r.get_ref();
     if !(1..=16).contains(&k) || (nodes - 1) * k + 1 > max {
         return Err(src.error(
             r,

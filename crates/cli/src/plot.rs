@@ -265,12 +265,11 @@ where
     // The iterations that only restored feasibility have no cost (`[time] retime_stall`).
     let minimizing = || s.history.iter().filter(|h| !h.feasibility && h.cost.is_finite());
     let costs = minimizing().map(|h| h.cost);
-    let cost_desc = match s.history.iter().find(|h| h.feasibility) {
-        Some(h) => format!(
-            "cost (final time, s; ● accepted, ✕ rejected; from {} only feasibility)",
-            h.iteration
-        ),
-        None => "cost (final time, s; ● accepted, ✕ rejected)".to_string(),
+    let restoring = feasibility_runs(&s.history);
+    let cost_desc = if restoring.is_empty() {
+        "cost (final time, s; ● accepted, ✕ rejected)".to_string()
+    } else {
+        format!("cost (final time, s; ● accepted, ✕ rejected; only feasibility at {restoring})")
     };
     let mut chart = ChartBuilder::on(&bottom)
         .margin(8)
@@ -295,6 +294,20 @@ where
         rejected.map(|h| Cross::new((h.iteration as f64, h.cost), 4, color(3).stroke_width(2))),
     )?;
     Ok(())
+}
+
+/// The iterations that only restored feasibility, as runs: `"19–20, 29"` (a refined solve
+/// has one run per stage); empty when there are none.
+fn feasibility_runs(history: &[armature_scvx::Iteration]) -> String {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for h in history.iter().filter(|h| h.feasibility) {
+        match runs.last_mut() {
+            Some((_, last)) if *last + 1 == h.iteration => *last = h.iteration,
+            _ => runs.push((h.iteration, h.iteration)),
+        }
+    }
+    let run = |&(a, b): &(usize, usize)| if a == b { a.to_string() } else { format!("{a}–{b}") };
+    runs.iter().map(run).collect::<Vec<_>>().join(", ")
 }
 
 /// Projection axes of the two views: top (x, y) and side (x, z).

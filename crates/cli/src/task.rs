@@ -29,8 +29,8 @@
 //! [nodes]
 //! per_segment = 3                # waypoint k sits at node k·per_segment (or give `count`;
 //!                                # default 3, 2 with dynamics = "rigid_body")
-//! # refine = 2                   # then again from that solution, every segment split in 2
-//!                                # (velocities then bounded at every grid point)
+//! # refine = 1                   # one stage (default 2, 1 with dynamics = "rigid_body":
+//!                                # then again from that solution, every segment split in 2)
 //!
 //! [[waypoints]]
 //! name = "home"
@@ -275,7 +275,8 @@ pub struct NodesSpec {
     pub count: Option<Spanned<usize>>,
     /// Mesh refinement: after converging on these nodes, solve again from that solution on
     /// a grid this many times finer (`ArmTask::refined`: every segment split, velocities and
-    /// angles bounded at every integration grid point; default 1, no second stage).
+    /// angles bounded at every integration grid point; default the dynamics model's,
+    /// `DynamicsModel::default_refine`: 2 decoupled, 1 rigid-body; 1 is one stage).
     #[serde(default)]
     #[schemars(with = "Option<usize>")]
     pub refine: Option<Spanned<usize>>,

@@ -33,8 +33,9 @@ fn the_demo_retimes_its_path_faster_within_every_limit() {
     let solve_time = r["final_time"].as_f64().unwrap();
     let retimed = &r["retimed"];
     let final_time = retimed["final_time"].as_f64().unwrap();
-    // Measured: 1.088 s → 1.075 s.
-    assert!(final_time < 0.995 * solve_time, "{final_time} against {solve_time}");
+    // Measured: 1.0495 s → 1.0492 s (the refined grid's path leaves little to retiming; one
+    // stage, `refine = 1`, retimes 1.088 s → 1.075 s).
+    assert!(final_time < solve_time, "{final_time} against {solve_time}");
     let t = retimed["trajectory"].clone();
     let time: Vec<f64> = column(&t, "time").into_iter().map(|r| r[0]).collect();
     let (q, v, tau) = (column(&t, "angle"), column(&t, "velocity"), column(&t, "torque"));
@@ -176,19 +177,30 @@ fn a_retimed_solve_stops_minimizing_once_the_retimed_time_stalls() {
         let history = r["history"].as_array().unwrap();
         history.iter().map(|h| h["feasibility"].as_bool().unwrap()).collect()
     };
+    // The seed refines (`DynamicsModel::default_refine`): each stage stops minimizing at its
+    // stall, so the marked iterations come as one run per stage, the second ending the solve.
     let marked = marks(&stalled);
-    let first = marked.iter().position(|&m| m).expect("a feasibility phase");
-    assert!(first > 0 && marked[first..].iter().all(|&m| m), "{marked:?}");
-    // The convergence plot's cost leaves them out and says from where.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (k, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
+        match runs.last_mut() {
+            Some((_, last)) if *last + 1 == k => *last = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    assert_eq!(runs.len(), 2, "{marked:?}");
+    assert!(runs[0].0 > 0 && runs[1].1 == marked.len() - 1, "{marked:?}");
+    // The convergence plot's cost leaves them out and says where (1-based).
+    let run = |&(a, b): &(usize, usize)| {
+        if a == b { format!("{}", a + 1) } else { format!("{}–{}", a + 1, b + 1) }
+    };
+    let label = format!("only feasibility at {}, {}", run(&runs[0]), run(&runs[1]));
     let svg = svg.unwrap();
-    assert!(svg.contains(&format!("from {} only feasibility", first + 1)), "{svg}");
+    assert!(svg.contains(&label), "{label}: {svg}");
     assert!(marks(&full).iter().all(|&m| !m));
-    // It stopped minimizing before the full solve ended. Whether that saves iterations in
-    // all depends on how long the restoration takes: over the benchmark suite 26 against 36
-    // at the median; on this task (measured) 20 against 25, retimed 1.0752 s against
-    // 1.0742 s.
-    let full_len = marks(&full).len();
-    assert!(first < full_len, "minimizing until {first}, the full solve {full_len}");
+    // Fewer iterations than minimizing to the end (over the benchmark suite about a quarter
+    // fewer; on this task, measured, 29 against 35, retimed 1.0492 s against 1.0494 s).
+    let (stalled_len, full_len) = (marked.len(), marks(&full).len());
+    assert!(stalled_len < full_len, "{stalled_len} iterations, the full solve {full_len}");
     let retimed = |r: &Value| r["retimed"]["final_time"].as_f64().unwrap();
     assert!(
         retimed(&stalled) < 1.02 * retimed(&full),

@@ -61,9 +61,11 @@ fn demo_writes_json_csv_and_plots_and_meets_the_task() {
     }
     let tf = r["final_time"].as_f64().unwrap();
     assert!(tf > 0.5 && tf <= 4.0, "{tf}");
+    // The refined grid's nodes (the demo task refines by default: 15 intervals, each split
+    // in two), waypoint w at node 6w.
     let nodes = &r["nodes"];
     for key in ["time", "angle", "velocity", "torque", "ee_position"] {
-        assert_eq!(nodes[key].as_array().unwrap().len(), 16, "{key}");
+        assert_eq!(nodes[key].as_array().unwrap().len(), 31, "{key}");
     }
     // Waypoints within 1 cm at their nodes; the dense trajectory above the table and within
     // the velocity limit.
@@ -76,7 +78,7 @@ fn demo_writes_json_csv_and_plots_and_meets_the_task() {
         [0.35, 0.25, 0.05],
     ];
     for (w, p) in wps.iter().enumerate() {
-        let e: Vec<f64> = serde_json::from_value(nodes["ee_position"][3 * w].clone()).unwrap();
+        let e: Vec<f64> = serde_json::from_value(nodes["ee_position"][6 * w].clone()).unwrap();
         let d = (0..3).map(|i| (e[i] - p[i]).powi(2)).sum::<f64>().sqrt();
         assert!(d <= 0.01 + 1e-6, "waypoint {w}: {d}");
     }
@@ -97,7 +99,7 @@ fn demo_writes_json_csv_and_plots_and_meets_the_task() {
     );
     assert_eq!(table.lines().count(), 1 + dense["time"].as_array().unwrap().len());
     let nodes_csv = std::fs::read_to_string(csv.join("nodes.csv")).unwrap();
-    assert_eq!(nodes_csv.lines().count(), 17);
+    assert_eq!(nodes_csv.lines().count(), 32);
     // Plots: SVG text and PNG images, nothing left over.
     for name in ["joints", "convergence", "path", "arm"] {
         let svg = std::fs::read_to_string(plots.join(format!("{name}.svg"))).unwrap();
@@ -157,9 +159,12 @@ fn the_rigid_body_demo_converges_within_every_limit() {
 /// for the decoupled model) give the subproblems a gradient where the motion rides its
 /// velocity limit between the nodes: the demo task converges to a markedly lower final time
 /// than with the continuous-time integral alone (`velocity_limit_peaks = false`), and the
-/// dense velocities still keep their limit.
+/// dense velocities still keep their limit. One stage (`refine = 1`): a refined stage bounds
+/// the velocities at every grid point whatever the task says.
 #[test]
 fn velocity_limit_peaks_reach_a_lower_final_time_within_the_limits() {
+    let once = TASK.replace("per_segment = 3 ", "refine = 1\nper_segment = 3 ");
+    assert_ne!(once, TASK);
     let solve = |tag: &str, task: &str| {
         let path = temp_file(tag, "task.toml", task);
         let out = path.with_file_name("result.json");
@@ -170,9 +175,9 @@ fn velocity_limit_peaks_reach_a_lower_final_time_within_the_limits() {
         r
     };
     let off =
-        TASK.replace("velocity_limit = 3.0", "velocity_limit = 3.0\nvelocity_limit_peaks = false");
-    assert_ne!(off, TASK);
-    let (plain, r) = (solve("peaks-off", &off), solve("peaks-default", TASK));
+        once.replace("velocity_limit = 3.0", "velocity_limit = 3.0\nvelocity_limit_peaks = false");
+    assert_ne!(off, once);
+    let (plain, r) = (solve("peaks-off", &off), solve("peaks-default", &once));
     let (t0, t1) = (plain["final_time"].as_f64().unwrap(), r["final_time"].as_f64().unwrap());
     // Measured: 1.088 s against 1.126 s.
     assert!(t1 < t0 - 0.03, "T = {t1} with peaks, {t0} without");
@@ -407,11 +412,13 @@ fn ik_restarts_above_their_cap_are_located() {
 }
 
 /// `[initialization] starts = 2`: the guess's timing × 1 and × 0.7 solved side by side, each
-/// start reported, the fastest converged one written; a start count out of 1..=16 is an
-/// error at its value.
+/// start reported, the fastest converged one written (one stage, `refine = 1`: a refined
+/// stage starts from the kept start's solution); a start count out of 1..=16 is an error at
+/// its value.
 #[test]
 fn several_starts_are_reported_and_the_fastest_is_written() {
-    let text = format!("{TASK}\n[initialization]\nstarts = 2\n");
+    let once = TASK.replace("per_segment = 3 ", "refine = 1\nper_segment = 3 ");
+    let text = format!("{once}\n[initialization]\nstarts = 2\n");
     let path = temp_file("starts", "task.toml", &text);
     let out = path.with_file_name("out.json");
     let (code, _, stderr) =
@@ -482,13 +489,12 @@ fn several_starts_are_reported_and_the_fastest_is_written() {
 /// When a later start is kept, the result is that start's through and through: the seed
 /// example with three starts keeps the one whose path retimes fastest, a later one
 /// (measured: the third, 1.4 × the guess's timing, retimed 1.0721 s against the first's
-/// 1.0750 s), and the 3D view's iterates are its own, not the first start's.
+/// 1.0750 s), and the 3D view's iterates are its own, not the first start's (one stage,
+/// `refine = 1`).
 #[test]
 fn a_later_start_kept_brings_its_own_iterates() {
-    let text = format!(
-        "{}\n[initialization]\nstarts = 3\n",
-        include_str!("../../../examples/pick-and-place.toml")
-    );
+    let once = TASK.replace("per_segment = 3 ", "refine = 1\nper_segment = 3 ");
+    let text = format!("{once}\n[initialization]\nstarts = 3\n");
     let path = temp_file("later-start", "task.toml", &text);
     let (code, out, stderr) = armature(&["solve", path.to_str().unwrap(), "-q", "-o", "-"]);
     assert_eq!(code, 0, "{stderr}");
@@ -534,15 +540,17 @@ fn the_documented_task_format_solves() {
     assert_eq!((code, r["status"].as_str()), (0, Some("converged")), "{err}");
 }
 
-/// `[nodes] refine = 2`: the demo task solved on its nodes, then again from that solution
-/// with every segment split in two. The result is the refined grid's (31 nodes), converged
-/// within the limits at a lower final time than the one stage (measured 1.050 s against
-/// 1.088 s), its history both
+/// The demo task refines by default (`DynamicsModel::default_refine`, as `refine = 2`): solved
+/// on its nodes, then again from that solution with every segment split in two. The result
+/// is the refined grid's (31 nodes), converged within the limits at a lower final time than
+/// one stage (`refine = 1`; measured 1.049 s against 1.075 s, retimed), its history both
 /// stages'; a bad factor is located at its key.
 #[test]
-fn a_refined_task_solves_twice_and_ends_faster() {
+fn a_task_refines_by_default_and_ends_faster() {
+    assert!(!TASK.lines().any(|l| l.starts_with("refine")), "the example keeps the default");
+    let once = TASK.replace("per_segment = 3 ", "refine = 1\nper_segment = 3 ");
     let refined = TASK.replace("per_segment = 3 ", "refine = 2\nper_segment = 3 ");
-    assert_ne!(refined, TASK);
+    assert_ne!(once, TASK);
     let solve = |tag: &str, task: &str| {
         let path = temp_file(tag, "task.toml", task);
         let out = path.with_file_name("result.json");
@@ -552,8 +560,9 @@ fn a_refined_task_solves_twice_and_ends_faster() {
         assert_solved(code, &r, &stderr);
         (r, stderr)
     };
-    let ((once, _), (twice, stderr)) = (solve("refine-1", TASK), solve("refine-2", &refined));
+    let ((once, once_err), (twice, stderr)) = (solve("refine-1", &once), solve("default", TASK));
     assert!(stderr.contains("refining: T = "), "{stderr}");
+    assert!(!once_err.contains("refining"), "{once_err}");
     assert_eq!(twice["nodes"]["time"].as_array().unwrap().len(), 31);
     let (t1, t2) = (once["final_time"].as_f64().unwrap(), twice["final_time"].as_f64().unwrap());
     assert!(t2 < 0.99 * t1, "T = {t2} refined, {t1} once");

@@ -233,18 +233,16 @@ fn a_second_solve_streaming_on_a_busy_run_is_refused() {
     assert!(!second_out.exists(), "the refused solve wrote its result");
 }
 
-/// A refined task (`[nodes] refine = 2`) streams both stages as one solve: sequences rising
-/// across the stages, the first stage's convergence not on the wire as the end, and then the
-/// refined dense trajectory with the result's status.
+/// A refined task (the example's default, as `[nodes] refine = 2`) streams both stages as one
+/// solve: sequences rising across the stages, the first stage's convergence not on the wire
+/// as the end, and then the refined dense trajectory with the result's status.
 #[test]
 fn a_refined_solve_streams_both_stages_as_one() {
     let run = format!("cli-refine-{}", std::process::id());
     let (listener, _rest) = listen(&["listen", &run, "--json", "--timeout", "120"]);
     let dir = scratch("stream-refine");
     let task = dir.path().join("task.toml");
-    let text = include_str!("../../../examples/pick-and-place.toml")
-        .replace("per_segment = 3 ", "refine = 2\nper_segment = 3 ");
-    std::fs::write(&task, text).unwrap();
+    std::fs::write(&task, include_str!("../../../examples/pick-and-place.toml")).unwrap();
     let result = dir.path().join("result.json");
     let (code, _, stderr) = armature(&[
         "solve",
