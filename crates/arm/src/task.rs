@@ -106,7 +106,7 @@ impl DynamicsModel {
     /// ([`crate::set_refined_guess`], starting from its prices), the decoupled tasks of the
     /// benchmark suite end at a median 1.005 × T_ref instead of 1.022 (the seed 1.049 s
     /// instead of 1.075) for about 1.7 times the solve time; the rigid-body model's refined
-    /// stage costs seven times its first solve for a 7 % gain (BENCHMARKS.md, 2026-12-08,
+    /// stage costs seven times its first solve for a 7 % gain (BENCHMARKS.md, 2026-12-07,
     /// "refinement by default").
     ///
     /// # Example
