@@ -233,6 +233,8 @@ mod tests {
         assert!(!t.task.velocity_limit_peaks && task.task.velocity_limit_peaks);
         let own = Study::from_args((None, None, None), None, None).unwrap();
         assert!(own.apply(task.clone()).unwrap().task.velocity_limit_peaks);
+        // Without `--refine` each task keeps its model's refinement.
+        assert_eq!(own.apply(task.clone()).unwrap().refine, task.task.dynamics.default_refine());
         assert!(t.task.settings.quasi_newton);
         assert_eq!(t.task.settings.discretization.substeps, 7);
         // Untouched fields keep the task's value.

@@ -83,3 +83,26 @@ fn the_first_trust_region_weight_is_the_models_unless_the_file_gives_one() {
     let rigid = from_file("ur5e.toml", ur5e).settings.lam_tr;
     assert_eq!(rigid, armature_scvx::PtrSettings::default().lam_tr);
 }
+
+/// `[nodes] refine`: the model's factor when not given (2 decoupled, 1 rigid-body), the
+/// file's when given, and one stage where the model's would pass the node limit (a factor
+/// the file gives past it is an error at its value).
+#[test]
+fn the_refinement_is_the_models_unless_the_file_gives_one() {
+    let factor = |text: &str| {
+        let src = Source { name: "t.toml", text };
+        armature_cli::pipeline::refinement(&parse(src).unwrap(), src).map_err(|e| e.to_string())
+    };
+    let seed = include_str!("../../../examples/pick-and-place.toml");
+    assert_eq!(factor(seed), Ok(2));
+    assert_eq!(factor(include_str!("../../../examples/ur5e-rigid-body.toml")), Ok(1));
+    let once = seed.replacen("per_segment = 3 ", "refine = 1\nper_segment = 3 ", 1);
+    assert_ne!(once, seed);
+    assert_eq!(factor(&once), Ok(1));
+    // 5 segments of 300 intervals: 1501 nodes, 3001 once refined, past the limit of 2000.
+    let dense = seed.replacen("per_segment = 3 ", "per_segment = 300 ", 1);
+    assert_eq!(factor(&dense), Ok(1));
+    let asked = dense.replacen("per_segment = 300 ", "refine = 2\nper_segment = 300 ", 1);
+    let e = factor(&asked).unwrap_err();
+    assert!(e.contains("refine 2: need 1 to 16, and at most 2000 nodes"), "{e}");
+}
