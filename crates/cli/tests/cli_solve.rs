@@ -6,7 +6,7 @@
 mod common;
 
 use common::{armature, assert_solved, scratch, temp_file};
-use serde_json::Value;
+use serde_json::{Value, json};
 
 const TASK: &str = include_str!("../../../examples/pick-and-place.toml");
 const COLLISION_TASK: &str = include_str!("../../../examples/pick-and-place-collision.toml");
@@ -569,6 +569,18 @@ fn a_task_refines_by_default_and_ends_faster() {
     let iterations = twice["iterations"].as_u64().unwrap();
     assert!(iterations > once["iterations"].as_u64().unwrap());
     assert_eq!(twice["history"].as_array().unwrap().len() as u64, iterations);
+    // The result file reports both stages: the first on 16 nodes, the refined one (the
+    // result) on 31, their iterations adding up to the result's.
+    let report = &twice["refinement"];
+    assert_eq!((&report["factor"], &report["kept"]), (&json!(2), &json!("refined")), "{report}");
+    let (first, fine) = (&report["first_stage"], &report["refined_stage"]);
+    assert_eq!((&first["nodes"], &fine["nodes"]), (&json!(16), &json!(31)));
+    assert_eq!((&first["status"], &fine["status"]), (&json!("converged"), &json!("converged")));
+    let each = |s: &Value| s["iterations"].as_u64().unwrap();
+    assert_eq!(each(first) + each(fine), iterations);
+    assert_eq!(fine["final_time"], twice["final_time"]);
+    assert!(first["final_time"].as_f64().unwrap() > t2);
+    assert!(once.get("refinement").is_none(), "one stage: no report");
     assert!(fastest_joint(&twice) <= 3.0 + 1e-4);
     let bad = refined.replace("refine = 2", "refine = 0");
     let line = bad.lines().position(|l| l == "refine = 0").unwrap() + 1;
@@ -601,9 +613,17 @@ fn a_solve_that_does_not_converge_tries_its_fallback_starts() {
     assert!(text.contains("fallback 2 (IK samples from seed 2, guess timing × 1.40)"), "{text}");
     let without = capped.replace("[settings]\n", "[initialization]\nfallbacks = 0\n\n[settings]\n");
     let path = temp_file("retries-off", "task.toml", &without);
-    let (code, out, err) = armature(&["solve", path.to_str().unwrap()]);
+    let (code, out, err) = armature(&["solve", path.to_str().unwrap(), "-o", "-"]);
     assert_eq!(code, 3, "{out}{err}");
     assert!(!format!("{out}{err}").contains("fallback start"), "{out}{err}");
+    // Not refined: the result is the first stage's, and its report says so.
+    assert!(err.contains("not refined: the first stage did not converge"), "{err}");
+    let r: Value = serde_json::from_str(&out).unwrap();
+    let report = &r["refinement"];
+    assert_eq!((&report["kept"], &report["refined_stage"]), (&json!("first_stage"), &Value::Null));
+    assert_eq!(report["first_stage"]["status"], "max_iterations");
+    assert_eq!(report["first_stage"]["nodes"], 16);
+    assert_eq!(r["nodes"]["time"].as_array().unwrap().len(), 16);
     let bad = capped.replace("[settings]\n", "[initialization]\nfallbacks = 17\n\n[settings]\n");
     let path = temp_file("fallbacks-bad", "task.toml", &bad);
     let (code, _, err) = armature(&["solve", path.to_str().unwrap()]);

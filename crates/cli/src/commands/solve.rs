@@ -9,7 +9,7 @@ use armature_bridge::{BridgeError, Status};
 use armature_scvx::{IterationTable, PtrStatus, Solution};
 use clap::Args;
 
-use crate::output::{ResultFile, StartsReport};
+use crate::output::{KeptStage, RefinementReport, ResultFile, StageSummary, StartsReport};
 use crate::output_set::OutputSet;
 use crate::pipeline::{arm_task, plan_arm, refinement, retiming};
 use crate::retimed::RetimedResult;
@@ -368,7 +368,11 @@ fn write_outputs(
     o: &OutputArgs,
     (name, plan): (&str, Option<&crate::pipeline::Plan>),
     r: Results<'_>,
-    (iterates, starts): (Vec<Iterate>, Option<&StartsReport>),
+    (iterates, starts, refinement): (
+        Vec<Iterate>,
+        Option<&StartsReport>,
+        Option<&RefinementReport>,
+    ),
     out: &mut dyn std::io::Write,
 ) -> Result<Vec<PathBuf>, CliError> {
     let scene = plan.map(Scene::from_plan);
@@ -378,6 +382,7 @@ fn write_outputs(
         scene: scene.as_ref(),
         iterates: &iterates,
         starts,
+        refinement,
     };
     let mut set = OutputSet::default();
     output::write_solution(&result, o.output.as_deref(), o.csv.as_deref(), out, &mut set)?;
@@ -469,7 +474,7 @@ pub fn run_task(
     check_outputs(o, &loaded.inputs)?;
     say(o.quiet, &describe(src.name, &mut loaded));
     let mut streamer = start_stream(o, &loaded.keypoints)?;
-    let Solved { solution, iterates, starts, retimed } =
+    let Solved { solution, iterates, starts, retimed, refinement } =
         solve_stages(&mut loaded, &mut streamer, (src, o.quiet))?;
     for line in summary(&solution, t0) {
         say(o.quiet, &line);
@@ -482,7 +487,7 @@ pub fn run_task(
         o,
         (src.name, loaded.plan.as_ref()),
         Results { solution: &solution, shown: shown.as_ref(), retimed: retimed.as_ref() },
-        (iterates, starts.as_ref()),
+        (iterates, starts.as_ref(), refinement.as_ref()),
         out,
     )?;
     for p in &written {
@@ -514,7 +519,7 @@ fn solve_starts(
     let others = loaded.starts.saturating_sub(1);
     let Some(timing) = loaded.plan.as_ref().filter(|_| others > 0).map(|p| p.timing()) else {
         let (solution, iterates) = solve_observed(loaded, streamer, (src, quiet), stage)?;
-        return Ok(Solved { solution, iterates, starts: None, retimed: None });
+        return Ok(Solved { solution, iterates, starts: None, retimed: None, refinement: None });
     };
     // The other starts' iterates, recorded for the 3D view should one of them be kept.
     let recorded: Vec<Mutex<Vec<Iterate>>> = (0..others).map(|_| Mutex::default()).collect();
@@ -553,7 +558,7 @@ fn solve_starts(
     let times = retimed.iter().map(|r| r.as_ref().map(|r| r.final_time)).collect();
     let starts = Some(StartsReport { kept: chosen, each: summaries, retimed_final_times: times });
     let retimed = retimed.get_mut(chosen).and_then(Option::take);
-    Ok(Solved { solution: best, iterates, starts, retimed })
+    Ok(Solved { solution: best, iterates, starts, retimed, refinement: None })
 }
 
 /// Which start to keep, each reported in a line: the converged one of least final time —
@@ -601,6 +606,8 @@ struct Solved {
     iterates: Vec<Iterate>,
     starts: Option<StartsReport>,
     retimed: Option<armature_arm::Retimed>,
+    /// With a refinement: how each stage ended, and which one `solution` is.
+    refinement: Option<RefinementReport>,
 }
 
 /// Solves the task, and with a refinement then the refined task from that solution (when
@@ -618,9 +625,16 @@ fn solve_stages(
         solved = fall_back(arm, solved, quiet);
     }
     let Some((factor, plan, mut compiled)) = refined else { return Ok(solved) };
+    let first_summary = StageSummary::of(&solved.solution);
     if solved.solution.status != PtrStatus::Converged {
         say(quiet, "not refined: the first stage did not converge");
-        return Ok(solved);
+        let refinement = Some(RefinementReport {
+            factor,
+            kept: KeptStage::FirstStage,
+            first_stage: first_summary,
+            refined_stage: None,
+        });
+        return Ok(Solved { refinement, ..solved });
     }
     // The refined stage's solution is retimed afresh.
     let Solved { solution: coarse, mut iterates, starts, .. } = solved;
@@ -640,12 +654,15 @@ fn solve_stages(
         (loaded.plan.replace(plan), std::mem::replace(&mut loaded.compiled, compiled));
     let second = Stage { offset: coarse.iterations, last: true };
     let (fine, more) = solve_observed(loaded, streamer, (src, quiet), second)?;
-    let solution = match armature_arm::keep_refined(coarse, fine) {
+    let refined_stage = Some(StageSummary::of(&fine));
+    let report =
+        |kept| RefinementReport { factor, kept, first_stage: first_summary, refined_stage };
+    let (solution, refinement) = match armature_arm::keep_refined(coarse, fine) {
         armature_arm::Refinement::Refined(both) => {
             // The guess's iterate of the second stage is the first stage's result: not
             // drawn again.
             iterates.extend(more.into_iter().skip(1));
-            both
+            (both, report(KeptStage::Refined))
         }
         armature_arm::Refinement::KeptFirstStage { first, refined } => {
             say(
@@ -657,10 +674,10 @@ fn solve_stages(
             );
             // With the plan and the problem that describe it.
             (loaded.plan, loaded.compiled) = first_stage;
-            first
+            (first, report(KeptStage::FirstStage))
         }
     };
-    Ok(Solved { solution, iterates, starts, retimed: None })
+    Ok(Solved { solution, iterates, starts, retimed: None, refinement: Some(refinement) })
 }
 
 /// The task solved again from its fallback starts ([`armature_arm::solve_fallbacks`]) after
@@ -689,7 +706,7 @@ fn fall_back(arm: &armature_arm::ArmTask, solved: Solved, quiet: bool) -> Solved
     }
     let mut iterates = solved.iterates;
     iterates.truncate(1);
-    Solved { solution: kept.solution, iterates, starts: solved.starts, retimed: None }
+    Solved { solution: kept.solution, iterates, retimed: None, ..solved }
 }
 
 /// An iterate as the 3D view draws it: the end effector at the nodes (`None` for a problem
