@@ -178,8 +178,11 @@ pub fn event_nodes(t: &SuiteTask) -> Vec<usize> {
 }
 
 /// The task as `t_ref.py` reads it, with armature's guess and (when it converged) its
-/// solution as starts.
+/// solution as starts. A solution on a refined grid (more nodes than the task) is exported
+/// with the refined task (`ArmTask::refined`), whose nodes and events index its times.
 pub fn export(t: &SuiteTask, outcome: Option<&Outcome>) -> Value {
+    let solved_on = solution_task(t, outcome);
+    let t = solved_on.as_ref().unwrap_or(t);
     let task = &t.task;
     let checks = run::checks(t);
     let (inertia, gravity) = match &task.dynamics {
@@ -229,4 +232,14 @@ pub fn export(t: &SuiteTask, outcome: Option<&Outcome>) -> Value {
         "guess": guess,
         "armature": solution,
     })
+}
+
+/// The refined task a solution on more nodes than `t`'s lives on (its nodes `f·k` for the
+/// task's `k`), or none when it is on the task's own grid.
+fn solution_task(t: &SuiteTask, outcome: Option<&Outcome>) -> Option<SuiteTask> {
+    let nodes = outcome?.solution.as_ref()?.times.len();
+    let intervals = t.task.nodes.checked_sub(1).filter(|&n| n > 0)?;
+    let factor = (nodes.checked_sub(1)? / intervals).max(1);
+    (factor > 1 && factor * intervals + 1 == nodes)
+        .then(|| SuiteTask { task: t.task.refined(factor), ..t.clone() })
 }

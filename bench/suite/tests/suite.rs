@@ -180,4 +180,16 @@ fn an_outcome_keeps_the_solvers_iteration_records() {
     assert_eq!((task.refine, ends), (2, 2));
     let text = String::from_utf8(table).unwrap();
     assert_eq!(text.lines().count(), 1 + outcome.iterations + ends, "{text}");
+    // Exported for the reference, the refined solution comes with the refined task: its
+    // events index the solution's node times (a waypoint at node k of the task at 2k).
+    let exported = armature_suite::reference::export(task, Some(&outcome));
+    let nodes = outcome.solution.as_ref().expect("a solution").times.len();
+    assert_eq!((exported["nodes"].as_u64(), nodes), (Some(2 * task.task.nodes as u64 - 1), nodes));
+    let events: Vec<u64> = serde_json::from_value(exported["events"].clone()).unwrap();
+    let own = armature_suite::reference::event_nodes(task);
+    assert_eq!(events, own.iter().map(|&k| 2 * k as u64).collect::<Vec<_>>());
+    assert_eq!(
+        exported["waypoints"][1]["node"].as_u64(),
+        Some(2 * task.task.waypoints[1].node as u64)
+    );
 }
