@@ -193,6 +193,7 @@ fn inspect_shows_constraints_sparsity_and_sizes_without_solving() {
     assert_eq!(code, 0, "{stderr}");
     for needle in [
         "robot arm7: 7 joints",
+        "nodes: 16 (15 segments)\n  then refined: 31 nodes, every segment split in 2",
         "waypoint grasp        node   6",
         "_ctcs_1  continuous-time clearance",
         "between the nodes:\n  bounds of velocity[0], velocity[1], velocity[2], velocity[3], \

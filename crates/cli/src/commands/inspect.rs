@@ -27,7 +27,7 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     let text = crate::read_input(&args.file)?;
     let name = args.file.display().to_string();
     let src = Source { name: &name, text: &text };
-    let Loaded { plan, mut compiled, .. } = load(src, Some(&args.file))?;
+    let Loaded { plan, mut compiled, refined, .. } = load(src, Some(&args.file))?;
     let mut s = String::new();
     if let Some(plan) = &plan {
         let chain = &plan.chain;
@@ -39,6 +39,13 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
             chain.keypoint_names().collect::<Vec<_>>().join(", ")
         );
         let _ = writeln!(s, "nodes: {} ({} segments)", plan.nodes, plan.nodes - 1);
+        if let Some((factor, fine, _)) = &refined {
+            let _ = writeln!(
+                s,
+                "  then refined: {} nodes, every segment split in {factor} (`[nodes] refine`; what follows is the first stage)",
+                fine.nodes
+            );
+        }
         for w in &plan.waypoints {
             let _ = writeln!(
                 s,
