@@ -381,12 +381,14 @@ pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedErro
     let dynamics = dynamics_model(task, src)?;
     let (nodes, _) = node_count(task, dynamics.default_per_segment(), src)?;
     let max = armature_scvx::MAX_NODES;
+    // The refined grid, (nodes − 1)·k + 1 nodes, within the limit.
+    let fits = |k: usize| (nodes - 1) * k < max;
     let Some(r) = &task.nodes.refine else {
         let k = dynamics.default_refine();
-        return Ok(if (nodes - 1) * k < max { k } else { 1 });
+        return Ok(if fits(k) { k } else { 1 });
     };
     let k = *r.get_ref();
-    if !(1..=16).contains(&k) || (nodes - 1) * k + 1 > max {
+    if !(1..=16).contains(&k) || !fits(k) {
         return Err(src.error(
             r,
             format!("refine {k}: need 1 to 16, and at most {max} nodes in all once refined"),
