@@ -60,6 +60,11 @@ TOLERANCE = 1e-4
 BACKOFF_ROUNDS = 3
 # IPOPT's time budget per start, seconds.
 MAX_SECONDS = 300
+# `--local`: IPOPT's barrier starts this small and the start is pushed this little inside its
+# bounds, so a start at a local optimum stays in its basin (the default barrier, 0.1, first
+# pushes a start at its bounds far inside them, from where it may reach another optimum).
+LOCAL_OPTIONS = {"ipopt.mu_init": 1e-7, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9,
+                 "ipopt.mu_strategy": "monotone"}
 # Rigid-body tasks: the torque rows (at the grid points and TORQUE_SAMPLES) keep this fraction
 # of each limit in reserve, so that the torque between the samples (a nonlinear function of
 # the motion there) stays inside the limit on the dense check.
@@ -461,15 +466,18 @@ class Transcription:
     """The NLP of a task with its orientation tolerances backed off by `backoff` rad, and
     IPOPT on it."""
 
-    def __init__(self, spec, k, backoff=0.0, torque_margin=TORQUE_MARGIN):
+    def __init__(self, spec, k, backoff=0.0, torque_margin=TORQUE_MARGIN, local=False):
         self.task = Task(spec, backoff, torque_margin)
         self.k = k
         nlp, self.x_bounds, self.g_bounds, self.g_count = transcribe(self.task, k)
-        self.solver = ca.nlpsol("s", "ipopt", nlp, {
+        options = {
             "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 3000,
             "ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9, "ipopt.mu_strategy": "adaptive",
             "expand": self.task.rnea is None, "ipopt.max_cpu_time": MAX_SECONDS,
-        })
+        }
+        if local:
+            options.update(LOCAL_OPTIONS)
+        self.solver = ca.nlpsol("s", "ipopt", nlp, options)
 
     def torques(self, x, accelerations):
         """The torques at the grid points: tau = I a, or RNEA(q, v, a)."""
@@ -495,21 +503,23 @@ class Transcription:
         return status, ok, x, float(np.sum(hs)), times, as_, worst, what
 
 
-def solve_task(spec, k=INTERVALS, first=False, only=""):
+def solve_task(spec, k=INTERVALS, first=False, only="", local=False):
     """Solves one task from each start; the best start that passes the dense check.
 
     A start that converges but breaks an orientation range between the grid points by more
     than the tolerance is solved again from its solution with that range's tolerance backed
     off by 1.5x the excess (at most BACKOFF_ROUNDS times): the reference then stays inside
     the task's constraints on the dense trajectory, at a cost of a fraction of a degree.
-    With `first`, the starts are tried guess first and the first that passes is kept.
+    With `first`, the starts are tried guess first and the first that passes is kept. With
+    `local`, IPOPT starts with a small barrier (`LOCAL_OPTIONS`): from armature's solution it
+    then says whether that solution is a local optimum of this transcription.
     """
     result = {"status": "no start", "final_time": None, "starts": [], "times": [], "torques": [],
               "q0": spec.get("q0") or [], "backoff": 0.0, "torque_margin": 0.0}
     if spec["infeasible"] or not spec.get("q0"):
         result["status"] = "skipped"
         return spec["name"], result
-    plain = Transcription(spec, k)
+    plain = Transcription(spec, k, local=local)
     if plain.task.rnea is not None:
         off = check_rnea(spec, plain.task.rnea)
         if off is not None and off > 1e-8:
@@ -536,7 +546,7 @@ def solve_task(spec, k=INTERVALS, first=False, only=""):
                 margin += 1.5 * worst / min(spec["tau_max"])
             else:
                 break
-            tr = Transcription(spec, k, backoff, margin)
+            tr = Transcription(spec, k, backoff, margin, local)
             status, ok, x, final, times, as_, worst, what = tr.solve(x)
             iterations += tr.solver.stats()["iter_count"]
         result["starts"].append(final if ok and worst <= TOLERANCE else None)
@@ -570,6 +580,8 @@ def main():
                     help="keep the first start that passes (guess first) instead of the best")
     ap.add_argument("--start", default="",
                     help="only the starts whose name begins with this (armature, guess)")
+    ap.add_argument("--local", action="store_true",
+                    help="a small initial barrier: the start's own basin (with --start armature)")
     ap.add_argument("--keep-best", action="store_true",
                     help="keep a stored entry whose final time is lower than the new one's")
     args = ap.parse_args()
@@ -581,7 +593,7 @@ def main():
     results = {}
     with multiprocessing.Pool(args.jobs) as pool:
         for name, result in pool.imap_unordered(
-            solve_task_star, [(s, args.intervals, args.first, args.start) for s in specs],
+            solve_task_star, [(s, args.intervals, args.first, args.start, args.local) for s in specs],
             chunksize=1,
         ):
             results[name] = result

@@ -1,7 +1,8 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--per-segment K] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
 //! [--velocity-peaks true|false] [--time-scaled true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
-//! [--no-retime] [--ik-seed S] [--fallbacks K]`: solves every task of the suite with default settings — each solve
+//! [--no-retime] [--ik-seed S] [--fallbacks K]`: solves every task of the suite with default settings, by the
+//! pipeline the CLI runs (`ArmTask::solve`: starts, fallbacks, refinement, retiming) — each solve
 //! stopping its minimization once its path retimed stalls and retiming its verified solution
 //! along that path, as the CLI does by default (`ArmTask::retime_stall`, `ArmTask::retime`,
 //! `[time] retime`) — verifies the result independently (the retimed trajectory by
@@ -22,7 +23,7 @@
 //! task's model's factor, `DynamicsModel::default_refine`, as the CLI's: 2 for the decoupled
 //! model, 1 for the rigid-body one; `--refine 1` solves every task once), `--starts K`
 //! solves each task's first stage from K timings of its guess in parallel and keeps the best
-//! (`ArmPlan::solve_multi_start`; iterations are the kept start's), `--settings JSON`
+//! (`ArmTask::solve`, the kept start's path retiming fastest; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
 //! points or not (each task's dynamics model chooses by default); `--time-scaled

@@ -3,8 +3,8 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use armature_arm::{ArmTask, Refinement, keep_refined, set_refined_guess};
-use armature_scvx::{PtrStatus, Solution};
+use armature_arm::{ArmError, KeptStage, Pipeline, Retimed, Solved};
+use armature_scvx::PtrStatus;
 use nalgebra::Matrix3;
 use serde::Serialize;
 
@@ -125,7 +125,9 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         history: Vec::new(),
     };
     let start = Instant::now();
-    let (solution, fine, extra) = match solve(t) {
+    // The pipeline as the CLI runs it (starts, fallbacks, refinement, retiming).
+    let pipeline = Pipeline { refine: Some(t.refine), retime: t.retime };
+    let solved = match t.task.solve(pipeline) {
         Ok(s) => s,
         Err(e) => {
             out.status = format!("error: {e}");
@@ -134,17 +136,18 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
         }
     };
     out.solve_ms = start.elapsed().as_secs_f64() * 1e3;
+    out.iterations = iterations(&solved);
+    let Solved { solution, task, retimed, refinement, .. } = solved;
     // A refined solve is verified on its own grid (waypoints and ranges at its nodes).
     let refined;
-    let t = match fine {
-        Some(task) => {
+    let t = match refinement.map(|r| r.kept) {
+        Some(KeptStage::Refined) => {
             refined = SuiteTask { task, ..t.clone() };
             &refined
         }
-        None => t,
+        _ => t,
     };
     out.status = format!("{:?}", solution.status);
-    out.iterations = solution.iterations + extra;
     out.history = solution.history.clone();
     out.final_time = solution.final_time;
     let nodes = &solution.nodes;
@@ -161,8 +164,8 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     out.worst = worst.value;
     out.worst_what = worst.what;
     out.verified = solution.status == PtrStatus::Converged && worst.value <= TOLERANCE;
-    if t.retime && out.verified {
-        retime(t, &solution, &mut out, start);
+    if let (true, Some(retimed)) = (out.verified, retimed) {
+        verify_retimed(t, retimed, &mut out);
     }
     out.solution = Some(NodeSolution {
         times,
@@ -172,12 +175,11 @@ pub fn run_one(t: &SuiteTask) -> Outcome {
     out
 }
 
-/// The outcome of `solution` retimed along its path (`ArmTask::retime`), verified as such:
-/// its final time, its largest violation, and the retiming's time added to the solve's.
-fn retime(t: &SuiteTask, solution: &Solution, out: &mut Outcome, start: Instant) {
-    match t.task.retime(solution) {
+/// The outcome of the solution retimed along its path (`ArmTask::retime`, by the pipeline),
+/// verified as such: its final time and its largest violation.
+fn verify_retimed(t: &SuiteTask, retimed: Result<Retimed, ArmError>, out: &mut Outcome) {
+    match retimed {
         Ok(r) => {
-            out.solve_ms = start.elapsed().as_secs_f64() * 1e3;
             let worst = crate::retimed::verify_retimed(t, &r);
             out.final_time = r.final_time;
             out.worst = worst.value;
@@ -191,46 +193,13 @@ fn retime(t: &SuiteTask, solution: &Solution, out: &mut Outcome, start: Instant)
     }
 }
 
-/// Plans and solves a task, from the task's fallback starts too when the first solve does
-/// not converge ([`armature_arm::solve_fallbacks`]); with `refine > 1`, then its refined
-/// task from that solution, returned with the sum of both stages' iterations (a first stage
-/// that does not converge is the outcome, and so is a converged first stage whose refined
-/// stage does not converge). Also the iterations of the starts and stages not kept.
-fn solve(t: &SuiteTask) -> Result<(Solution, Option<ArmTask>, usize), String> {
-    let text = |e: &dyn std::fmt::Display| e.to_string();
-    let plan = t.task.plan().map_err(|e| text(&e))?;
-    let coarse = match t.task.initialization.starts {
-        0 | 1 => plan.compile().and_then(|mut c| c.solve()).map_err(|e| text(&e))?,
-        // Retiming, the kept start is the one whose path retimed is fastest (as the CLI's).
-        starts if t.retime => {
-            let compile = |s| plan.time_scaled(s).compile();
-            let (mut ends, _) = armature_arm::solve_starts(0, starts, compile);
-            let time =
-                |_: usize, s: &Solution| t.task.retime(s).map_or(s.final_time, |r| r.final_time);
-            let kept = armature_arm::best_start_by(&ends, time).unwrap_or(0);
-            ends.swap_remove(kept).map_err(|e| text(&e))?
-        }
-        starts => plan.solve_multi_start(starts).map_err(|e| text(&e))?.best,
-    };
-    // A solve that does not converge is tried again from other guesses (the task's
-    // fallbacks); the iterations counted are every start's.
-    let first_iterations = coarse.iterations;
-    let fallbacks = armature_arm::solve_fallbacks(&t.task, coarse);
-    let extra = fallbacks.total_iterations(first_iterations) - fallbacks.solution.iterations;
-    let coarse = fallbacks.solution;
-    if t.refine <= 1 || coarse.status != PtrStatus::Converged {
-        return Ok((coarse, None, extra));
-    }
-    let task = t.task.refined(t.refine);
-    let mut fine = task.plan().map_err(|e| text(&e))?.compile().map_err(|e| text(&e))?;
-    set_refined_guess(&mut fine, &coarse, t.refine).map_err(|e| text(&e))?;
-    let solution = fine.solve().map_err(|e| text(&e))?;
-    // As the CLI: a refined stage that does not converge leaves the first stage's result,
-    // its iterations counted.
-    Ok(match keep_refined(coarse, solution) {
-        Refinement::Refined(both) => (both, Some(task), extra),
-        Refinement::KeptFirstStage { first, refined } => (first, None, extra + refined.iterations),
-    })
+/// The iterations a result took: every solve's (fallbacks, both stages of a refinement,
+/// kept or not) but the starts not kept of a multi-start solve, which ran beside the kept one.
+fn iterations(solved: &Solved) -> usize {
+    let beside = solved.starts.as_ref().map_or(0, |r| {
+        r.each.iter().enumerate().filter(|(i, _)| *i != r.kept).map(|(_, s)| s.iterations).sum()
+    });
+    solved.total_iterations - beside
 }
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {

@@ -546,6 +546,26 @@ fn the_documented_task_format_solves() {
 /// is the refined grid's (31 nodes), converged within the limits at a lower final time than
 /// one stage (`refine = 1`; measured 1.049 s against 1.075 s, retimed), its history both
 /// stages'; a bad factor is located at its key.
+/// The CLI's solve of the example is the library's pipeline on its fixture
+/// (`ArmTask::solve`, the example being the fixture: `fixtures_match`): the same iterations,
+/// final time, refinement report and retimed final time.
+#[test]
+fn the_cli_solve_is_the_library_pipeline() {
+    let path = temp_file("pipeline", "task.toml", TASK);
+    let out = path.with_file_name("result.json");
+    let (code, _, stderr) =
+        armature(&["solve", path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()]);
+    let r = read_json(&out);
+    assert_solved(code, &r, &stderr);
+    let seed = armature_arm::fixtures::pick_and_place();
+    let solved = seed.solve(armature_arm::Pipeline::default()).unwrap();
+    assert_eq!(r["iterations"], json!(solved.solution.iterations));
+    assert_eq!(r["final_time"].as_f64().unwrap(), solved.solution.final_time);
+    assert_eq!(r["refinement"], serde_json::to_value(&solved.refinement).unwrap());
+    let retimed = solved.retimed.unwrap().unwrap();
+    assert_eq!(r["retimed"]["final_time"].as_f64().unwrap(), retimed.final_time);
+}
+
 #[test]
 fn a_task_refines_by_default_and_ends_faster() {
     assert!(!TASK.lines().any(|l| l.starts_with("refine")), "the example keeps the default");
