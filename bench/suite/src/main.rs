@@ -1,7 +1,7 @@
 //! `cargo run --release -p armature-suite [-- --filter WORD] [--json FILE] [--export FILE]
 //! [--reference FILE] [--per-segment K] [--subdivide K] [--refine K] [--starts K] [--settings JSON]
 //! [--velocity-peaks true|false] [--time-scaled true|false] [--retime-stall JSON] [--no-retime-stall] [--history]
-//! [--no-retime] [--ik-seed S] [--fallbacks K]`: solves every task of the suite with default settings, by the
+//! [--no-retime] [--ik-seed S] [--ik-restarts K] [--fallbacks K]`: solves every task of the suite with default settings, by the
 //! pipeline the CLI runs (`ArmTask::solve`: starts, fallbacks, refinement, retiming) — each solve
 //! stopping its minimization once its path retimed stalls and retiming its verified solution
 //! along that path, as the CLI does by default (`ArmTask::retime_stall`, `ArmTask::retime`,
@@ -22,7 +22,8 @@
 //! `armature_arm::set_refined_guess`; iterations and time count both stages; by default each
 //! task's model's factor, `DynamicsModel::default_refine`, as the CLI's: 2 for the decoupled
 //! model, 1 for the rigid-body one; `--refine 1` solves every task once), `--starts K`
-//! solves each task's first stage from K timings of its guess in parallel and keeps the best
+//! solves each task's first stage from K IK paths (`ArmTask::start`; by default each task's
+//! own, 2) in parallel and keeps the best
 //! (`ArmTask::solve`, the kept start's path retiming fastest; iterations are the kept start's), `--settings JSON`
 //! overrides fields of each task's `PtrSettings` (e.g. `'{"quasi_newton": true}'`);
 //! `--velocity-peaks true|false` bounds every task's velocities at the integration grid's
@@ -32,7 +33,8 @@
 //! changes the rule by which minimization stops once the path retimed stalls (the default
 //! `RetimeStall` with the object's fields); `--ik-seed S` draws every task's IK branch
 //! samples from seed S (`Initialization::seed`, 0 by default: another initialization of the
-//! same tasks) and `--fallbacks K` sets how many fallback starts a solve that does not
+//! same tasks), `--ik-restarts K` sets every task's IK samples per waypoint
+//! (`Initialization::restarts`, 8 by default; a later start draws 8 times more) and `--fallbacks K` sets how many fallback starts a solve that does not
 //! converge may try (`armature_arm::solve_fallbacks`, 2 by default; iterations and time count
 //! every start).
 
@@ -51,7 +53,9 @@ fn main() {
         value("--velocity-peaks"),
     )
     .and_then(|s| s.with_per_segment(value("--per-segment")))
-    .and_then(|s| s.with_starts_from((value("--ik-seed"), value("--fallbacks"))))
+    .and_then(|s| {
+        s.with_starts_from((value("--ik-seed"), value("--fallbacks"), value("--ik-restarts")))
+    })
     .and_then(|s| s.with_time_scaled(value("--time-scaled")))
     .and_then(|s| {
         let on = !args.iter().any(|a| a == "--no-retime" || a == "--no-retime-stall");

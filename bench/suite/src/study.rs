@@ -26,8 +26,9 @@ pub struct Study {
     /// finer from that solution (1: once; `None`: each task's model's default,
     /// `DynamicsModel::default_refine`).
     pub refine: Option<usize>,
-    /// Starts of every task's first solve (`Initialization::starts`; 1: the guess alone).
-    pub starts: usize,
+    /// Starts of every task's first solve (`Initialization::starts`; `None`: the task's own,
+    /// the default 2).
+    pub starts: Option<usize>,
     /// The rule by which every task's solve stops minimizing once its path retimed stalls
     /// (`ArmTask::retime_stall`; `None`: minimizing to the end).
     pub retime_stall: Option<armature_arm::RetimeStall>,
@@ -35,6 +36,9 @@ pub struct Study {
     pub ik_seed: Option<u64>,
     /// Every task's fallback starts (`Initialization::fallbacks`; `None`: the default, 2).
     pub fallbacks: Option<usize>,
+    /// Every task's IK samples per waypoint and restarts (`Initialization::restarts`; `None`:
+    /// the task's own).
+    pub ik_restarts: Option<usize>,
 }
 
 impl Study {
@@ -52,7 +56,7 @@ impl Study {
         let factor = |flag: &str, k| count(flag, k).map(|k| k.unwrap_or(1));
         let subdivide = factor("--subdivide", subdivide)?;
         let refine = count("--refine", refine)?;
-        let starts = factor("--starts", starts)?;
+        let starts = count("--starts", starts)?;
         let settings = match settings {
             None => None,
             Some(s) => match serde_json::from_str::<Value>(s) {
@@ -73,6 +77,7 @@ impl Study {
             retime_stall: None,
             ik_seed: None,
             fallbacks: None,
+            ik_restarts: None,
         })
     }
 
@@ -115,8 +120,14 @@ impl Study {
     /// A value that is not a whole number (a fallback count from 0 to 16).
     pub fn with_starts_from(
         mut self,
-        (seed, fallbacks): (Option<&String>, Option<&String>),
+        (seed, fallbacks, restarts): (Option<&String>, Option<&String>, Option<&String>),
     ) -> Result<Self, String> {
+        if let Some(k) = restarts {
+            match k.parse::<usize>() {
+                Ok(k) if (1..=4096).contains(&k) => self.ik_restarts = Some(k),
+                _ => return Err(format!("--ik-restarts {k}: need a whole number from 1 to 4096")),
+            }
+        }
         if let Some(s) = seed {
             self.ik_seed =
                 Some(s.parse().map_err(|_| format!("--ik-seed {s}: need a whole number"))?);
@@ -155,12 +166,17 @@ impl Study {
         if let Some(k) = self.refine {
             t.refine = k;
         }
-        t.task.initialization.starts = self.starts;
+        if let Some(k) = self.starts {
+            t.task.initialization.starts = k;
+        }
         if let Some(seed) = self.ik_seed {
             t.task.initialization.seed = seed;
         }
         if let Some(k) = self.fallbacks {
             t.task.initialization.fallbacks = k;
+        }
+        if let Some(k) = self.ik_restarts {
+            t.task.initialization.restarts = k;
         }
         if let Some(on) = self.velocity_peaks {
             t.task.velocity_limit_peaks = on;
@@ -229,7 +245,7 @@ mod tests {
         let t = study.apply(task.clone()).unwrap();
         assert_eq!(t.task.nodes, 2 * (nodes - 1) + 1);
         assert_eq!((t.refine, task.refine), (3, 2));
-        assert_eq!((t.task.initialization.starts, task.task.initialization.starts), (3, 1));
+        assert_eq!((t.task.initialization.starts, task.task.initialization.starts), (3, 2));
         assert!(!t.task.velocity_limit_peaks && task.task.velocity_limit_peaks);
         let own = Study::from_args((None, None, None), None, None).unwrap();
         assert!(own.apply(task.clone()).unwrap().task.velocity_limit_peaks);
@@ -284,19 +300,27 @@ mod tests {
     }
 
     #[test]
-    fn every_task_takes_the_ik_seed_and_fallbacks_given_and_bad_values_are_refused() {
+    fn every_task_takes_the_ik_seed_fallbacks_and_restarts_given_and_bad_values_are_refused() {
         let plain = || Study::from_args((None, None, None), None, None).unwrap();
         let task = crate::generate::suite().into_iter().next().unwrap();
-        let own = plain().with_starts_from((None, None)).unwrap().apply(task.clone()).unwrap();
+        let own =
+            plain().with_starts_from((None, None, None)).unwrap().apply(task.clone()).unwrap();
         assert_eq!(own.task.initialization, task.task.initialization);
-        let given = plain().with_starts_from((Some(&"7".into()), Some(&"0".into()))).unwrap();
+        let given = plain()
+            .with_starts_from((Some(&"7".into()), Some(&"0".into()), Some(&"64".into())))
+            .unwrap();
         let t = given.apply(task).unwrap();
-        assert_eq!((t.task.initialization.seed, t.task.initialization.fallbacks), (7, 0));
-        let e = plain().with_starts_from((Some(&"-1".into()), None)).err().unwrap();
+        let i = t.task.initialization;
+        assert_eq!((i.seed, i.fallbacks, i.restarts), (7, 0, 64));
+        let e = plain().with_starts_from((Some(&"-1".into()), None, None)).err().unwrap();
         assert!(e.contains("--ik-seed"), "{e}");
         for bad in ["17", "x"] {
-            let e = plain().with_starts_from((None, Some(&bad.into()))).err().unwrap();
+            let e = plain().with_starts_from((None, Some(&bad.into()), None)).err().unwrap();
             assert!(e.contains("--fallbacks"), "{e}");
+        }
+        for bad in ["0", "5000", "x"] {
+            let e = plain().with_starts_from((None, None, Some(&bad.into()))).err().unwrap();
+            assert!(e.contains("--ik-restarts"), "{e}");
         }
     }
 }

@@ -89,6 +89,7 @@ pub fn solve_fallbacks(task: &ArmTask, first: Solution) -> Fallbacks {
             }
             Err(e) => out.tried.push(StartSummary {
                 time_scale: scale,
+                ik_samples: None,
                 outcome: StartOutcome::Failed(e),
                 final_time: f64::NAN,
                 iterations: 0,

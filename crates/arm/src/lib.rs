@@ -22,8 +22,9 @@ mod task;
 pub use error::{ArmError, TaskItem};
 pub use fallback::{Fallbacks, fallback_task, solve_fallbacks};
 pub use multi_start::{
-    MultiStart, StartOutcome, StartSummary, best_start, best_start_by, scale_timing, solve_starts,
-    solve_starts_with, start_time_scale, summarize,
+    MAX_START_SAMPLES, MultiStart, StartOutcome, StartSummary, best_start, best_start_by,
+    scale_timing, solve_starts, solve_starts_with, solve_task_starts_with, start_ik_samples,
+    start_time_scale, summarize,
 };
 pub use pipeline::{Pipeline, PipelineError, Solved};
 pub use plan::{ArmPlan, set_retime_stall, waypoint_parameter};

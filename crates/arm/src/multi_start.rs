@@ -1,16 +1,22 @@
 //! Several starts of one task, solved in parallel (rayon), the best kept: time-optimal
 //! trajectories have local optima, and which one a solve reaches depends on its start.
 //!
-//! The starts differ in the timing of the initial guess: start `i` scales the guess's
-//! segment durations (and its final time) by [`start_time_scale`]`(i)` = 1, 0.7, 1.4, 0.49,
-//! 1.96, …, clamped into the time window. On the benchmark suite the time scalings reach
-//! other optima where other IK paths of the same waypoints do not (BENCHMARKS.md).
+//! A task's starts ([`ArmTask::start`], [`solve_task_starts_with`]) differ in the IK path
+//! of their guess: start `i` draws [`start_ik_samples`] random configurations per waypoint
+//! for the branch search (8, 64, 512 from the default 8), which then finds other paths
+//! through the waypoints' redundant postures, and with them other basins. On the benchmark
+//! suite the basin is what keeps a solve above the reference (17 of the 18 decoupled tasks
+//! above 1.02 × T_ref sit within 0.8 % of their own basin's optimum), and the best of the
+//! first two starts leaves 6 of them (BENCHMARKS.md, 2026-12-08). A plan's starts
+//! ([`ArmPlan::solve_multi_start`]) can only scale its guess's timing
+//! ([`start_time_scale`]: 1, 0.7, 1.4, 0.49, …), which on today's solver reaches the same
+//! basins.
 
 use armature_scvx::{CompiledProblem, ProblemError, PtrStatus, Solution, Time};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::ArmPlan;
+use crate::{ArmPlan, ArmTask};
 
 /// The time scale of start `i`: 1 for the first, then alternately shorter and longer
 /// (`0.7^k`, `1.4^k`).
@@ -34,11 +40,86 @@ pub fn start_time_scale(i: usize) -> f64 {
     }
 }
 
+/// The most random configurations per waypoint a start's branch search draws
+/// ([`start_ik_samples`]); the CLI's cap on `[initialization] restarts`.
+pub const MAX_START_SAMPLES: usize = 1000;
+
+/// The IK branch search's random configurations per waypoint of a task's start `i`, the
+/// task's own being `restarts`: eight times more per start (`restarts·8^i`), at most
+/// [`MAX_START_SAMPLES`].
+///
+/// # Example
+/// ```
+/// use armature_arm::start_ik_samples;
+/// assert_eq!((0..4).map(|i| start_ik_samples(8, i)).collect::<Vec<_>>(), [8, 64, 512, 1000]);
+/// assert_eq!(start_ik_samples(0, 0), 1);
+/// ```
+pub fn start_ik_samples(restarts: usize, i: usize) -> usize {
+    let factor = 8usize.saturating_pow(u32::try_from(i).unwrap_or(u32::MAX));
+    restarts.max(1).saturating_mul(factor).min(MAX_START_SAMPLES.max(restarts))
+}
+
+impl ArmTask {
+    /// Start `i` of this task's multi-start solve: the same task, its IK branch search
+    /// drawing [`start_ik_samples`]`(restarts, i)` random configurations per waypoint (start
+    /// 0 is the task itself), one start of its own.
+    ///
+    /// # Example
+    /// ```
+    /// let mut task = armature_arm::fixtures::pick_and_place();
+    /// task.initialization.starts = 2;
+    /// let second = task.start(1);
+    /// assert_eq!(second.initialization.restarts, 64);
+    /// assert_eq!(second.initialization.starts, 1);
+    /// assert_eq!(task.start(0).initialization.restarts, task.initialization.restarts);
+    /// ```
+    pub fn start(&self, i: usize) -> ArmTask {
+        let mut t = self.clone();
+        t.initialization.restarts = start_ik_samples(self.initialization.restarts, i);
+        t.initialization.starts = 1;
+        t
+    }
+}
+
+/// Solves the starts `first..first + count` of `task` ([`ArmTask::start`]) in parallel, each
+/// planned, compiled and solved by `solve(i, compiled)` (through
+/// [`CompiledProblem::solve_with`] to watch its iterations): each start's end, in start
+/// order, and its summary. A start that cannot be planned ends in [`ProblemError::Bad`].
+pub fn solve_task_starts_with<S>(
+    task: &ArmTask,
+    first: usize,
+    count: usize,
+    solve: S,
+) -> (Vec<Result<Solution, ProblemError>>, Vec<StartSummary>)
+where
+    S: Fn(usize, &mut CompiledProblem) -> Result<Solution, ProblemError> + Sync,
+{
+    let planned = |i: usize| {
+        let what = format!("start {}", i + 1);
+        let plan =
+            task.start(i).plan().map_err(|e| ProblemError::Bad { what, reason: e.message })?;
+        solve(i, &mut plan.compile()?)
+    };
+    let ends: Vec<Result<Solution, ProblemError>> =
+        (first..first + count).into_par_iter().map(planned).collect();
+    let samples = |j: usize| Some(start_ik_samples(task.initialization.restarts, first + j));
+    let summaries = ends
+        .iter()
+        .enumerate()
+        .map(|(j, end)| StartSummary { ik_samples: samples(j), ..summarize(1.0, end.as_ref()) })
+        .collect();
+    (ends, summaries)
+}
+
 /// How one start ended.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StartSummary {
-    /// The start's time scale ([`start_time_scale`]).
+    /// The start's time scale ([`start_time_scale`]; 1 for a task's starts).
     pub time_scale: f64,
+    /// A task's start ([`ArmTask::start`]): its IK branch search's random configurations per
+    /// waypoint ([`start_ik_samples`]); `None` for a plan's starts, which share its IK path.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ik_samples: Option<usize>,
     /// Its outcome: the solver's status, or the error that ended it.
     pub outcome: StartOutcome,
     /// Final time (s; NaN after an error).
@@ -122,12 +203,14 @@ pub fn summarize(time_scale: f64, end: Result<&Solution, &ProblemError>) -> Star
     match end {
         Ok(s) => StartSummary {
             time_scale,
+            ik_samples: None,
             outcome: StartOutcome::Solved(s.status),
             final_time: s.final_time,
             iterations: s.iterations,
         },
         Err(e) => StartSummary {
             time_scale,
+            ik_samples: None,
             outcome: StartOutcome::Failed(e.to_string()),
             final_time: f64::NAN,
             iterations: 0,

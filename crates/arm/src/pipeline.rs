@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::{
     ArmError, ArmTask, Fallbacks, KeptStage, Refinement, RefinementReport, Retimed, StageSummary,
     StartSummary, StartsReport, best_start_by, keep_refined, set_refined_guess, solve_fallbacks,
-    solve_starts,
+    solve_task_starts_with,
 };
 
 /// What [`ArmTask::solve`] runs around the solver (the task's own settings say how each
@@ -152,9 +152,9 @@ impl ArmTask {
         }
     }
 
-    /// The first stage: one start, or the best of several (by their retimed final times when
-    /// retiming, each start's retiming kept for the chosen one); the starts' report and
-    /// their iterations.
+    /// The first stage: one start, or the best of several ([`ArmTask::start`]: other IK
+    /// paths; by their retimed final times when retiming, each start's retiming kept for the
+    /// chosen one); the starts' report and their iterations.
     fn solve_first_stage(
         &self,
         plan: &crate::ArmPlan,
@@ -166,7 +166,8 @@ impl ArmTask {
             let iterations = solution.iterations;
             return Ok((solution, None, None, iterations));
         }
-        let (mut ends, each) = solve_starts(0, starts, |s| plan.time_scaled(s).compile());
+        // Each start plans its own IK path (start 0's is `plan`'s, planned again: a few ms).
+        let (mut ends, each) = solve_task_starts_with(self, 0, starts, |_, c| c.solve());
         let total = each.iter().map(|s| s.iterations).sum();
         let mut retimed: Vec<Option<Retimed>> = match pipeline.retime {
             true => ends

@@ -3,16 +3,17 @@
 
 use armature_arm::{
     KeptStage, Pipeline, PipelineError, StartOutcome, TaskItem, fixtures, keep_refined,
-    set_refined_guess, start_time_scale,
+    set_refined_guess,
 };
 use armature_scvx::{PtrStatus, Solution};
 
 /// The refined stage of the pipeline is the one `set_refined_guess` and `keep_refined` make
 /// from the first stage's solution; the report says so, the task is the refined one and the
-/// retiming is that solution's.
+/// retiming is that solution's (one start: the starts are the test below's).
 #[test]
 fn the_default_pipeline_refines_and_retimes_the_seed() {
-    let seed = fixtures::pick_and_place();
+    let mut seed = fixtures::pick_and_place();
+    seed.initialization.starts = 1;
     let solved = seed.solve(Pipeline::default()).unwrap();
     let coarse = seed.plan().unwrap().compile().unwrap().solve().unwrap();
     let mut fine = seed.refined(2).plan().unwrap().compile().unwrap();
@@ -40,7 +41,8 @@ fn the_default_pipeline_refines_and_retimes_the_seed() {
 /// unretimed.
 #[test]
 fn one_stage_without_retiming() {
-    let seed = fixtures::pick_and_place();
+    let mut seed = fixtures::pick_and_place();
+    seed.initialization.starts = 1;
     let solved = seed.solve(Pipeline { refine: Some(1), retime: false }).unwrap();
     let alone = seed.plan().unwrap().compile().unwrap().solve().unwrap();
     assert_eq!(
@@ -52,16 +54,24 @@ fn one_stage_without_retiming() {
     assert_eq!(solved.task, seed);
 }
 
-/// With two starts the kept one is the start whose path retimes fastest, each start's
-/// retimed final time reported; every start's iterations are counted.
+/// With two starts (the default) — the task's own IK path and the one its branch search
+/// finds with eight times the samples (`ArmTask::start`) — the kept one is the start whose
+/// path retimes fastest, each start's retimed final time reported; every start's iterations
+/// are counted, and each start is the solve of its own task.
 #[test]
 fn several_starts_keep_the_fastest_retimed_path() {
-    let mut seed = fixtures::pick_and_place();
-    seed.initialization.starts = 2;
+    let seed = fixtures::pick_and_place();
+    assert_eq!(seed.initialization.starts, 2);
     let solved = seed.solve(Pipeline { refine: Some(1), retime: true }).unwrap();
     let starts = solved.starts.as_ref().unwrap();
-    let scales: Vec<f64> = starts.each.iter().map(|s| s.time_scale).collect();
-    assert_eq!(scales, [1.0, start_time_scale(1)]);
+    let samples: Vec<Option<usize>> = starts.each.iter().map(|s| s.ik_samples).collect();
+    assert_eq!(samples, [Some(8), Some(64)]);
+    assert!(starts.each.iter().all(|s| s.time_scale == 1.0));
+    let second = seed.start(1).plan().unwrap().compile().unwrap().solve().unwrap();
+    assert_eq!(
+        (starts.each[1].final_time, starts.each[1].iterations),
+        (second.final_time, second.iterations)
+    );
     let retimed: Vec<f64> = starts.retimed_final_times.iter().map(|t| t.unwrap()).collect();
     let fastest = retimed.iter().copied().fold(f64::INFINITY, f64::min);
     assert_eq!(retimed[starts.kept], fastest);
@@ -88,7 +98,9 @@ fn a_first_stage_that_does_not_converge_is_the_result() {
     let (tried, kept) = &solved.fallbacks;
     assert_eq!(tried.len(), seed.initialization.fallbacks);
     assert!(*kept <= tried.len());
-    assert_eq!(solved.total_iterations, 3 * (1 + tried.len()));
+    let starts = seed.initialization.starts;
+    assert_eq!(solved.starts.as_ref().map(|r| r.each.len()), Some(starts));
+    assert_eq!(solved.total_iterations, 3 * (starts + tried.len()));
     let report = solved.refinement.unwrap();
     assert_eq!((report.kept, report.refined_stage), (KeptStage::FirstStage, None));
     assert_eq!(report.first_stage.status, PtrStatus::MaxIterations);

@@ -616,32 +616,6 @@ fn collision(
     })
 }
 
-/// What the starts of a solve differ in: the problem, its guess's timing and the settings
-/// (a copy of a [`Plan`]'s, to compile the other starts beside the first).
-#[derive(Debug, Clone)]
-pub struct Timing {
-    problem: Problem,
-    dilation_guess: Vec<f64>,
-    settings: armature_scvx::PtrSettings,
-    retime_stall: Option<Stall>,
-}
-
-impl Timing {
-    /// The problem compiled with its guess's timing scaled by `scale`
-    /// ([`armature_arm::scale_timing`]).
-    ///
-    /// # Errors
-    /// The problem layer's (a bug rather than bad input: the plan was checked).
-    pub fn compile_scaled(
-        &self,
-        scale: f64,
-    ) -> Result<CompiledProblem, armature_scvx::ProblemError> {
-        let (mut problem, mut dilation) = (self.problem.clone(), self.dilation_guess.clone());
-        armature_arm::scale_timing(&mut problem.time, &mut dilation, scale);
-        compile_guess(&problem, &self.settings, &dilation, self.retime_stall.as_ref())
-    }
-}
-
 /// `problem` compiled with `settings`, the dilation guess set, and `stall`'s monitor.
 fn compile_guess(
     problem: &Problem,
@@ -656,16 +630,6 @@ fn compile_guess(
 }
 
 impl Plan {
-    /// A copy of what the starts of a solve differ in.
-    pub fn timing(&self) -> Timing {
-        Timing {
-            problem: self.problem.clone(),
-            dilation_guess: self.dilation_guess.clone(),
-            settings: self.settings.clone(),
-            retime_stall: self.retime_stall.clone(),
-        }
-    }
-
     /// Compiles the problem and sets the guess.
     ///
     /// # Errors

@@ -58,7 +58,7 @@
 //! ik = "branches"                # least joint travel over IK branches (default), or
 //!                                # "sequential" / "parallel" node by node
 //! restarts = 8                   # random configurations solved from at each waypoint
-//! starts = 1                     # solves from the guess's timing scaled by 1, 0.7, 1.4, …
+//! starts = 2                     # solves from IK paths searched with 8, 64, 512 samples
 //!                                # in parallel, the fastest kept (retimed)
 //! seed = 0                       # of the random configurations at the waypoints
 //! fallbacks = 2                  # a solve that does not converge is tried again from
@@ -472,10 +472,13 @@ pub struct InitSpec {
     #[serde(default = "eight")]
     #[schemars(with = "usize")]
     pub restarts: Spanned<usize>,
-    /// Starts of the solve, 1 to 16: the guess's timing scaled by 1, 0.7, 1.4, 0.49, …,
-    /// solved in parallel, the best converged solution kept (each start is reported in a
-    /// line; the iteration table is the first start's). Default 1.
-    #[serde(default = "one")]
+    /// Starts of the solve, 1 to 16: start `i` searches the IK path through the waypoints
+    /// with `restarts·8^i` random configurations per waypoint (at most 1,000: 8, 64, 512, …
+    /// from the default), which finds other paths through the arm's redundant postures and
+    /// with them other local optima; the starts are solved in parallel, the best converged
+    /// solution kept (each start is reported in a line; the iteration table is the first
+    /// start's). Default 2.
+    #[serde(default = "two")]
     #[schemars(with = "usize")]
     pub starts: Spanned<usize>,
     /// The seed of the random configurations the branch search solves from at the waypoints.
@@ -493,16 +496,12 @@ pub struct InitSpec {
 
 impl Default for InitSpec {
     fn default() -> Self {
-        InitSpec { ik: branches(), restarts: eight(), starts: one(), seed: 0, fallbacks: two() }
+        InitSpec { ik: branches(), restarts: eight(), starts: two(), seed: 0, fallbacks: two() }
     }
 }
 
 fn two() -> Spanned<usize> {
     Spanned::new(0..0, 2)
-}
-
-fn one() -> Spanned<usize> {
-    Spanned::new(0..0, 1)
 }
 
 fn branches() -> Spanned<String> {

@@ -82,8 +82,9 @@ pub struct Loaded {
     /// With `[nodes] refine = K > 1`: K, and the task on the grid K times finer, planned and
     /// compiled, solved from the first stage's solution.
     pub refined: Option<(usize, crate::pipeline::Plan, armature_scvx::CompiledProblem)>,
-    /// `[initialization] starts` (1 for a problem file).
-    pub starts: usize,
+    /// With `[initialization] starts = K > 1`: K, and the task, whose other starts plan their
+    /// own IK paths ([`armature_arm::ArmTask::start`]).
+    pub starts: Option<(usize, armature_arm::ArmTask)>,
     /// With `[time] retime` (the default where the time is minimized): the task, to retime
     /// its solution along the solved path.
     pub retime: Option<armature_arm::ArmTask>,
@@ -107,7 +108,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
             .map_err(|e| CliError::bad_input(crate::problem_file::locate(&file, src, &e)))?;
         let inputs = path.map(Path::to_path_buf).into_iter().collect();
         let keypoints = Vec::new();
-        let (refined, starts, retime, fallback) = (None, 1, None, None);
+        let (refined, starts, retime, fallback) = (None, None, None, None);
         let loaded =
             Loaded { plan: None, compiled, keypoints, inputs, refined, starts, retime, fallback };
         return Ok(loaded);
@@ -116,7 +117,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
     let factor = refinement(&task, src).map_err(CliError::bad_input)?;
     let fine = (factor > 1).then(|| arm.refined(factor));
-    let starts = arm.initialization.starts;
+    let starts = (arm.initialization.starts > 1).then(|| (arm.initialization.starts, arm.clone()));
     let fallback = (arm.initialization.fallbacks > 0).then(|| arm.clone());
     let retime = retiming(&task, src).map_err(CliError::bad_input)?.then(|| arm.clone());
     let plan = plan_arm(&task, src, arm).map_err(CliError::bad_input)?;
@@ -506,8 +507,9 @@ pub fn run_task(
 }
 
 /// The observed solve from the task's guess, and with `[initialization] starts = K > 1`
-/// the other K − 1 starts beside it ([`armature_arm::solve_starts_with`], their iterates
-/// recorded), the best kept ([`choose_start`]) and every start reported in a line. The iteration table and the streamed iterates are the first start's; the iterates
+/// the other K − 1 starts beside it (other IK paths, [`armature_arm::solve_task_starts_with`],
+/// their iterates recorded), the best kept ([`choose_start`]) and every start reported in a
+/// line. The iteration table and the streamed iterates are the first start's; the iterates
 /// the 3D view draws, the result written, streamed at the end and refined are the kept
 /// start's.
 fn solve_starts(
@@ -516,11 +518,11 @@ fn solve_starts(
     (src, quiet): (Source<'_>, bool),
     stage: Stage,
 ) -> Result<Solved, CliError> {
-    let others = loaded.starts.saturating_sub(1);
-    let Some(timing) = loaded.plan.as_ref().filter(|_| others > 0).map(|p| p.timing()) else {
+    let Some((count, task)) = loaded.starts.clone() else {
         let (solution, iterates) = solve_observed(loaded, streamer, (src, quiet), stage)?;
         return Ok(Solved { solution, iterates, starts: None, retimed: None, refinement: None });
     };
+    let others = count - 1;
     // The other starts' iterates, recorded for the 3D view should one of them be kept.
     let recorded: Vec<Mutex<Vec<Iterate>>> = (0..others).map(|_| Mutex::default()).collect();
     let layout = loaded.compiled.layout().clone();
@@ -535,17 +537,20 @@ fn solve_starts(
         end
     };
     let (observed, rest) = std::thread::scope(|scope| {
-        let compile = |s| timing.compile_scaled(s);
-        let rest = scope.spawn(move || armature_arm::solve_starts_with(1, others, compile, record));
+        let task = &task;
+        let rest =
+            scope.spawn(move || armature_arm::solve_task_starts_with(task, 1, others, record));
         let observed = solve_observed(loaded, streamer, (src, quiet), stage);
         (observed, rest.join())
     });
     let (first, mut iterates) = observed?;
     let (ends, summaries) = rest.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-    let summaries: Vec<_> =
-        std::iter::once(armature_arm::summarize(armature_arm::start_time_scale(0), Ok(&first)))
-            .chain(summaries)
-            .collect();
+    let own = armature_arm::start_ik_samples(task.initialization.restarts, 0);
+    let first_summary = armature_arm::StartSummary {
+        ik_samples: Some(own),
+        ..armature_arm::summarize(1.0, Ok(&first))
+    };
+    let summaries: Vec<_> = std::iter::once(first_summary).chain(summaries).collect();
     let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
     let (chosen, mut retimed) = choose_start(loaded, &ends, &summaries, quiet);
     if chosen != 0 {
@@ -588,9 +593,9 @@ fn choose_start(
         say(
             quiet,
             &format!(
-                "start {} (guess timing × {:.2}): {outcome}, T = {:.4} s{again}, {} iterations{kept}",
+                "start {} ({} IK samples per waypoint): {outcome}, T = {:.4} s{again}, {} iterations{kept}",
                 i + 1,
-                s.time_scale,
+                s.ik_samples.unwrap_or_default(),
                 s.final_time,
                 s.iterations
             ),
