@@ -139,8 +139,22 @@ impl ArmTask {
         Ok(solved)
     }
 
-    /// The refinement factor `refine` asks for on this task's grid (see [`Pipeline::refine`]).
-    fn refinement_factor(&self, refine: Option<usize>) -> Result<usize, PipelineError> {
+    /// The mesh refinement's factor on this task's grid for [`Pipeline::refine`]: the given
+    /// one, or the dynamics model's ([`DynamicsModel::default_refine`](crate::DynamicsModel::default_refine))
+    /// where its refined grid, `(N − 1)·k + 1` nodes, stays within [`MAX_NODES`] (one stage
+    /// otherwise).
+    ///
+    /// # Errors
+    /// [`PipelineError::Refine`] for a given factor of 0 or one whose grid would pass
+    /// [`MAX_NODES`].
+    ///
+    /// # Example
+    /// ```
+    /// let seed = armature_arm::fixtures::pick_and_place();
+    /// assert_eq!(seed.refinement_factor(None), Ok(2));
+    /// assert!(seed.refinement_factor(Some(0)).is_err());
+    /// ```
+    pub fn refinement_factor(&self, refine: Option<usize>) -> Result<usize, PipelineError> {
         let fits = |k: usize| self.nodes.saturating_sub(1).saturating_mul(k) < MAX_NODES;
         match refine {
             None => {

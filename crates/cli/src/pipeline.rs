@@ -371,30 +371,27 @@ fn retime_stall(task: &TaskFile, src: Source<'_>) -> Result<Option<RetimeStall>,
     Ok(on.then(RetimeStall::default))
 }
 
-/// `[nodes] refine`: the factor of the mesh refinement, checked against the node count; when
-/// not given, the dynamics model's (`DynamicsModel::default_refine`: 2 decoupled, 1
-/// rigid-body), or 1 where that grid would pass the node limit.
+/// `[nodes] refine`: the factor of the mesh refinement of `arm` (the task built from `task`),
+/// by the library's rule ([`ArmTask::refinement_factor`]): when not given, the dynamics
+/// model's (`DynamicsModel::default_refine`: 2 decoupled, 1 rigid-body), or 1 where that grid
+/// would pass the node limit.
 ///
 /// # Errors
 /// A factor below 1 or above 16, or a refined grid beyond the node limit.
-pub fn refinement(task: &TaskFile, src: Source<'_>) -> Result<usize, LocatedError> {
-    let dynamics = dynamics_model(task, src)?;
-    let (nodes, _) = node_count(task, dynamics.default_per_segment(), src)?;
-    let max = armature_scvx::MAX_NODES;
-    // The refined grid, (nodes − 1)·k + 1 nodes, within the limit.
-    let fits = |k: usize| (nodes - 1) * k < max;
+pub fn refinement(task: &TaskFile, src: Source<'_>, arm: &ArmTask) -> Result<usize, LocatedError> {
     let Some(r) = &task.nodes.refine else {
-        let k = dynamics.default_refine();
-        return Ok(if fits(k) { k } else { 1 });
+        return Ok(arm.refinement_factor(None).unwrap_or(1));
     };
     let k = *r.get_ref();
-    if !(1..=16).contains(&k) || !fits(k) {
-        return Err(src.error(
-            r,
-            format!("refine {k}: need 1 to 16, and at most {max} nodes in all once refined"),
-        ));
+    match arm.refinement_factor(Some(k)) {
+        Ok(k) if k <= 16 => Ok(k),
+        _ => {
+            let max = armature_scvx::MAX_NODES;
+            let why =
+                format!("refine {k}: need 1 to 16, and at most {max} nodes in all once refined");
+            Err(src.error(r, why))
+        }
     }
-    Ok(k)
 }
 
 /// `[nodes]`: the node count, and the nodes per segment when given that way.

@@ -91,7 +91,9 @@ fn the_first_trust_region_weight_is_the_models_unless_the_file_gives_one() {
 fn the_refinement_is_the_models_unless_the_file_gives_one() {
     let factor = |text: &str| {
         let src = Source { name: "t.toml", text };
-        armature_cli::pipeline::refinement(&parse(src).unwrap(), src).map_err(|e| e.to_string())
+        let task = parse(src).unwrap();
+        let arm = armature_cli::pipeline::arm_task(&task, src, None).unwrap();
+        armature_cli::pipeline::refinement(&task, src, &arm).map_err(|e| e.to_string())
     };
     let seed = include_str!("../../../examples/pick-and-place.toml");
     assert_eq!(factor(seed), Ok(2));

@@ -115,7 +115,7 @@ pub fn load(src: Source<'_>, path: Option<&Path>) -> Result<Loaded, CliError> {
     }
     let task = parse(src).map_err(CliError::bad_input)?;
     let arm = arm_task(&task, src, path).map_err(CliError::bad_input)?;
-    let factor = refinement(&task, src).map_err(CliError::bad_input)?;
+    let factor = refinement(&task, src, &arm).map_err(CliError::bad_input)?;
     let fine = (factor > 1).then(|| arm.refined(factor));
     let starts = (arm.initialization.starts > 1).then(|| (arm.initialization.starts, arm.clone()));
     let fallback = (arm.initialization.fallbacks > 0).then(|| arm.clone());
