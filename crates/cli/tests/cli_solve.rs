@@ -198,6 +198,7 @@ fn inspect_shows_constraints_sparsity_and_sizes_without_solving() {
         "robot arm7: 7 joints",
         "nodes: 16 (15 segments)\n  then refined: 31 nodes, every segment split in 2",
         "waypoint grasp        node   6",
+        "starts: 2, solved side by side from the IK paths searched with 8, 64 random configurations per waypoint",
         "_ctcs_1  continuous-time clearance",
         "between the nodes:\n  bounds of velocity[0], velocity[1], velocity[2], velocity[3], \
          velocity[4], velocity[5], velocity[6]: at every integration grid point\n  \

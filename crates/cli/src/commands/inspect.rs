@@ -27,7 +27,7 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
     let text = crate::read_input(&args.file)?;
     let name = args.file.display().to_string();
     let src = Source { name: &name, text: &text };
-    let Loaded { plan, mut compiled, refined, .. } = load(src, Some(&args.file))?;
+    let Loaded { plan, mut compiled, refined, starts, .. } = load(src, Some(&args.file))?;
     let mut s = String::new();
     if let Some(plan) = &plan {
         let chain = &plan.chain;
@@ -60,6 +60,18 @@ pub fn run(args: &InspectArgs, out: &mut dyn std::io::Write) -> Result<(), CliEr
             plan.nodes,
             plan.dilation_guess[..plan.nodes - 1].iter().sum::<f64>() / (plan.nodes - 1) as f64
         );
+        if let Some((count, task)) = &starts {
+            let samples: Vec<String> = (0..*count)
+                .map(|i| {
+                    armature_arm::start_ik_samples(task.initialization.restarts, i).to_string()
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "starts: {count}, solved side by side from the IK paths searched with {} random configurations per waypoint (`[initialization] starts`; the guess above is the first start's)",
+                samples.join(", ")
+            );
+        }
     } else {
         let nodes = compiled.ptr().ocp().nodes;
         let _ = writeln!(s, "problem file: {nodes} nodes ({} segments)", nodes - 1);
