@@ -24,7 +24,7 @@ pub use fallback::{Fallbacks, fallback_task, solve_fallbacks};
 pub use multi_start::{
     MAX_START_SAMPLES, MultiStart, StartOutcome, StartSummary, best_start, best_start_by,
     scale_timing, solve_starts, solve_starts_with, solve_task_starts_with, start_ik_samples,
-    start_time_scale, summarize,
+    start_time_scale, summarize, summarize_start,
 };
 pub use pipeline::{Pipeline, PipelineError, Solved};
 pub use plan::{ArmPlan, set_retime_stall, waypoint_parameter};

@@ -102,13 +102,23 @@ where
     };
     let ends: Vec<Result<Solution, ProblemError>> =
         (first..first + count).into_par_iter().map(planned).collect();
-    let samples = |j: usize| Some(start_ik_samples(task.initialization.restarts, first + j));
     let summaries = ends
         .iter()
         .enumerate()
-        .map(|(j, end)| StartSummary { ik_samples: samples(j), ..summarize(1.0, end.as_ref()) })
+        .map(|(j, end)| summarize_start(task, first + j, end.as_ref()))
         .collect();
     (ends, summaries)
+}
+
+/// The summary of `task`'s start `i` ([`ArmTask::start`]): its IK samples per waypoint, and
+/// how it ended.
+pub fn summarize_start(
+    task: &ArmTask,
+    i: usize,
+    end: Result<&Solution, &ProblemError>,
+) -> StartSummary {
+    let ik_samples = Some(start_ik_samples(task.initialization.restarts, i));
+    StartSummary { ik_samples, ..summarize(1.0, end) }
 }
 
 /// How one start ended.

@@ -545,11 +545,7 @@ fn solve_starts(
     });
     let (first, mut iterates) = observed?;
     let (ends, summaries) = rest.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-    let own = armature_arm::start_ik_samples(task.initialization.restarts, 0);
-    let first_summary = armature_arm::StartSummary {
-        ik_samples: Some(own),
-        ..armature_arm::summarize(1.0, Ok(&first))
-    };
+    let first_summary = armature_arm::summarize_start(&task, 0, Ok(&first));
     let summaries: Vec<_> = std::iter::once(first_summary).chain(summaries).collect();
     let mut ends: Vec<_> = std::iter::once(Ok(first)).chain(ends).collect();
     let (chosen, mut retimed) = choose_start(loaded, &ends, &summaries, quiet);
